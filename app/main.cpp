@@ -1,0 +1,301 @@
+// bondem command-line entry point: parses arguments, loads the case, calls the library.
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "io/atomic_file.hpp"
+#include "io/case_file.hpp"
+#include "solver/calculator.hpp"
+#include "solver/collision.hpp"
+
+namespace {
+
+using bondem::Case;
+
+/// Exit status for bad input of any kind (case file, options, values).
+constexpr int kBadInput = 2;
+
+/// A bad command-line value; reported like a case error.
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/// Mean radius of the case's particles of each material (0 when a material has none).
+std::vector<double> reference_radii(const Case& c) {
+  std::vector<double> sum(c.materials.size(), 0.0);
+  std::vector<double> count(c.materials.size(), 0.0);
+  for (const auto& p : c.particles) {
+    sum[static_cast<std::size_t>(p.material)] += p.radius;
+    count[static_cast<std::size_t>(p.material)] += 1.0;
+  }
+  for (std::size_t m = 0; m < sum.size(); ++m) sum[m] = count[m] > 0.0 ? sum[m] / count[m] : 0.0;
+  return sum;
+}
+
+/// An upper bound of the case's relative impact speeds: twice the fastest particle.
+double largest_relative_speed(const Case& c) {
+  double fastest = 0.0;
+  for (const auto& p : c.particles) fastest = std::max(fastest, p.velocity.norm());
+  return 2.0 * fastest;
+}
+
+void print_quantity(const std::string& name, double value, const std::string& unit) {
+  std::cout << name << " = " << std::setprecision(6) << value;
+  if (!unit.empty()) std::cout << " " << unit;
+  std::cout << "\n";
+}
+
+int run_info(const std::string& case_path, const std::vector<std::string>& overrides,
+             std::optional<double> velocity) {
+  const Case c = bondem::load_case(case_path, overrides);
+  double reference = velocity.value_or(largest_relative_speed(c));
+  const char* reference_source = velocity ? "--velocity" : "twice the fastest case particle";
+  if (!(reference > 0.0)) {
+    reference = 1.0;
+    reference_source = "default, no particle moves";
+  }
+  const std::vector<double> radii = reference_radii(c);
+  const std::size_t n = c.materials.size();
+  std::cout << "# bond calculator for " << case_path << "; radii are the mean of each material's"
+            << " particles; reference impact speed: " << reference_source << "\n";
+  for (std::size_t a = 0; a < n; ++a) {
+    for (std::size_t b = a; b < n; ++b) {
+      if (radii[a] == 0.0 || radii[b] == 0.0) {
+        std::cout << "# [" << c.materials[a].name << " " << c.materials[b].name
+                  << "]: no particles of one material, skipped\n";
+        continue;
+      }
+      const auto r = bondem::compute_pair_report(c, static_cast<int>(a), radii[a],
+                                                 static_cast<int>(b), radii[b], reference);
+      std::cout << "[" << c.materials[a].name << " " << c.materials[b].name << "]\n";
+      print_quantity("radius_a", radii[a], "m");
+      print_quantity("radius_b", radii[b], "m");
+      print_quantity("effective_modulus", r.effective_modulus, "Pa");
+      print_quantity("effective_radius", r.effective_radius, "m");
+      print_quantity("effective_mass", r.effective_mass, "kg");
+      print_quantity("alpha", c.bond.alpha, "");
+      print_quantity("adhesion_stiffness", r.adhesion_stiffness,
+                     c.bond.alpha == 1.0 ? "N/m" : "N/m^" + std::to_string(c.bond.alpha));
+      print_quantity("equilibrium_overlap", r.equilibrium_overlap, "m");
+      print_quantity("critical_overlap", r.critical_overlap, "m");
+      print_quantity("critical_velocity", r.critical_velocity, "m/s");
+      print_quantity("bond_stiffness_at_equilibrium", r.bond_stiffness, "N/m");
+      print_quantity("bond_period", r.bond_period, "s");
+      print_quantity("reference_velocity", r.reference_velocity, "m/s");
+      print_quantity("hertz_max_overlap", r.max_overlap, "m");
+      print_quantity("hertz_contact_time", r.contact_time, "s");
+      print_quantity("rayleigh_time", r.rayleigh_time, "s");
+      print_quantity("recommended_time_step", r.recommended_time_step, "s");
+      print_quantity("time_step", c.time_step, "s");
+      print_quantity("steps_per_contact", r.contact_time / c.time_step, "");
+      for (const std::string& w : bondem::time_step_warnings(r, c.time_step)) {
+        std::cerr << "warning: [" << c.materials[a].name << " " << c.materials[b].name << "] " << w
+                  << "\n";
+      }
+    }
+  }
+  return 0;
+}
+
+std::string json_number(double value) {
+  std::ostringstream out;
+  out << std::setprecision(12) << value;
+  return out.str();
+}
+
+void print_result(const bondem::CollisionResult& r, bool json) {
+  const std::string contact_time = r.contact_time ? json_number(*r.contact_time) : "null";
+  if (json) {
+    std::cout << "{\"restitution\": " << json_number(r.restitution)
+              << ", \"bonded\": " << (r.bonded ? "true" : "false")
+              << ", \"max_overlap\": " << json_number(r.max_overlap)
+              << ", \"contact_time\": " << contact_time
+              << ", \"final_overlap\": " << json_number(r.final_overlap) << "}\n";
+    return;
+  }
+  std::cout << "restitution = " << json_number(r.restitution) << "\n"
+            << "bonded = " << (r.bonded ? "true" : "false") << "\n"
+            << "bond_formed = " << (r.bond_formed ? "true" : "false") << "\n"
+            << "max_overlap = " << json_number(r.max_overlap) << " m\n"
+            << "contact_time = " << contact_time << (r.contact_time ? " s" : "") << "\n"
+            << "final_overlap = " << json_number(r.final_overlap) << " m\n";
+}
+
+/// Parse "A:B" or "A:B:N" into numbers.
+std::vector<double> parse_range(const std::string& text, std::size_t parts, const char* option) {
+  std::vector<double> values;
+  std::stringstream stream(text);
+  for (std::string item; std::getline(stream, item, ':');) {
+    try {
+      std::size_t used = 0;
+      values.push_back(std::stod(item, &used));
+      if (used != item.size()) throw std::invalid_argument(item);
+    } catch (const std::exception&) {
+      throw UsageError(std::string(option) + " " + text + ": '" + item + "' is not a number");
+    }
+  }
+  if (values.size() != parts) {
+    throw UsageError(std::string(option) + " " + text + ": expected " +
+                     (parts == 3 ? "V0:V1:N" : "V0:V1"));
+  }
+  if (!(values[0] > 0.0 && values[1] > values[0])) {
+    throw UsageError(std::string(option) + " " + text + ": need 0 < V0 < V1");
+  }
+  return values;
+}
+
+void warn_time_step(const Case& c, double velocity) {
+  const auto report =
+      bondem::compute_pair_report(c, c.particles[0].material, c.particles[0].radius,
+                                  c.particles[1].material, c.particles[1].radius, velocity);
+  for (const std::string& w : bondem::time_step_warnings(report, c.time_step)) {
+    std::cerr << "warning: " << w << "\n";
+  }
+}
+
+struct CollideOptions {
+  std::string case_path;
+  std::vector<std::string> overrides;
+  std::optional<double> velocity;
+  bool json = false;
+  std::string trace_path;
+  std::string sweep;
+  std::string out_path;
+  std::string threshold;
+};
+
+int run_collide(const CollideOptions& o) {
+  const Case c = bondem::load_case(o.case_path, o.overrides);
+  if (c.particles.size() != 2) {
+    throw UsageError(o.case_path + ": collide needs exactly two particles, the case has " +
+                     std::to_string(c.particles.size()));
+  }
+  const int modes =
+      (o.velocity ? 1 : 0) + (o.sweep.empty() ? 0 : 1) + (o.threshold.empty() ? 0 : 1);
+  if (modes != 1) throw UsageError("collide: give exactly one of --velocity, --sweep, --threshold");
+
+  if (!o.sweep.empty()) {
+    if (o.out_path.empty()) throw UsageError("collide --sweep needs --out FILE.csv");
+    const auto range = parse_range(o.sweep, 3, "--sweep");
+    const double count = range[2];
+    if (count < 2.0 || count != std::floor(count)) {
+      throw UsageError("--sweep " + o.sweep + ": N must be an integer of at least 2");
+    }
+    warn_time_step(c, range[1]);
+    bondem::AtomicFile out(o.out_path);
+    out.stream() << "velocity,restitution,bonded,max_overlap,contact_time,final_overlap\n";
+    const auto n = static_cast<int>(count);
+    for (int k = 0; k < n; ++k) {
+      const double v = range[0] + (range[1] - range[0]) * k / (n - 1);
+      const auto r = bondem::collide(c, v);
+      out.stream() << v << "," << r.restitution << "," << (r.bonded ? 1 : 0) << "," << r.max_overlap
+                   << "," << (r.contact_time ? json_number(*r.contact_time) : "") << ","
+                   << r.final_overlap << "\n";
+    }
+    out.commit();
+    return 0;
+  }
+
+  if (!o.threshold.empty()) {
+    // Bisection on "bond held at the end": sticking is monotone in the impact speed.
+    const auto range = parse_range(o.threshold, 2, "--threshold");
+    double low = range[0];
+    double high = range[1];
+    warn_time_step(c, high);
+    if (bondem::collide(c, low).bonded || !bondem::collide(c, high).bonded) {
+      throw UsageError("--threshold " + o.threshold +
+                       ": the pair must rebound at V0 and stick at V1 to bracket the threshold");
+    }
+    while (high - low > 1e-6 * high) {
+      const double mid = 0.5 * (low + high);
+      (bondem::collide(c, mid).bonded ? high : low) = mid;
+    }
+    const double threshold = 0.5 * (low + high);
+    if (o.json) {
+      std::cout << "{\"sticking_threshold\": " << json_number(threshold) << "}\n";
+    } else {
+      std::cout << "sticking_threshold = " << json_number(threshold) << " m/s\n";
+    }
+    return 0;
+  }
+
+  warn_time_step(c, *o.velocity);
+  std::optional<bondem::AtomicFile> trace_file;
+  std::function<void(const bondem::CollisionSample&)> trace;
+  if (!o.trace_path.empty()) {
+    trace_file.emplace(o.trace_path);
+    trace_file->stream() << "time,overlap,overlap_rate,normal_force,bonded\n";
+    trace = [&](const bondem::CollisionSample& s) {
+      trace_file->stream() << s.time << "," << s.overlap << "," << s.overlap_rate << ","
+                           << s.normal_force << "," << (s.bonded ? 1 : 0) << "\n";
+    };
+  }
+  const auto result = bondem::collide(c, *o.velocity, trace);
+  if (trace_file) trace_file->commit();
+  print_result(result, o.json);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"bondem: DEM with the Hertz + adhesion bond model of Quintana-Ruiz & Campello"};
+  app.require_subcommand(1);
+
+  std::string info_case;
+  std::vector<std::string> info_overrides;
+  std::optional<double> info_velocity;
+  auto* info = app.add_subcommand("info", "Bond calculator: derived quantities per material pair");
+  info->add_option("case", info_case, "Case file (YAML)")->required();
+  info->add_option("--set", info_overrides, "Override a scalar: KEY=VALUE (dotted key)");
+  info->add_option("--velocity", info_velocity, "Reference impact speed [m/s]");
+
+  CollideOptions collide;
+  auto* collide_cmd =
+      app.add_subcommand("collide", "Central collision of the case's two particles");
+  collide_cmd->add_option("case", collide.case_path, "Case file (YAML) with two particles")
+      ->required();
+  collide_cmd->add_option("--velocity", collide.velocity, "Relative impact speed V [m/s]");
+  collide_cmd->add_option("--set", collide.overrides, "Override a scalar: KEY=VALUE (dotted key)");
+  collide_cmd->add_flag("--json", collide.json, "Print one JSON object");
+  collide_cmd->add_option("--trace", collide.trace_path, "Write the per-step history to FILE.csv");
+  collide_cmd->add_option("--sweep", collide.sweep, "Impact speeds V0:V1:N (needs --out)");
+  collide_cmd->add_option("--out", collide.out_path, "CSV file for --sweep");
+  collide_cmd->add_option("--threshold", collide.threshold,
+                          "Bisect the sticking speed between V0:V1");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::cerr << "bondem: error: " << e.what() << " (see bondem --help)\n";
+    return kBadInput;
+  }
+
+  try {
+    if (info->parsed()) return run_info(info_case, info_overrides, info_velocity);
+    if (collide_cmd->parsed()) return run_collide(collide);
+  } catch (const bondem::CaseError& e) {
+    std::cerr << "bondem: error: " << e.what() << "\n";
+    return kBadInput;
+  } catch (const UsageError& e) {
+    std::cerr << "bondem: error: " << e.what() << "\n";
+    return kBadInput;
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "bondem: error: " << e.what() << "\n";
+    return kBadInput;
+  } catch (const std::exception& e) {
+    std::cerr << "bondem: failed: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,56 @@
+#pragma once
+/// @file case.hpp
+/// The validated description of a simulation case, as read from a case file (io/case_file.hpp).
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "solver/bond_law.hpp"
+#include "solver/pair.hpp"
+
+namespace bondem {
+
+/// Elastic solid of a particle species.
+struct Material {
+  std::string name;
+  double density = 0.0;         ///< rho [kg/m^3]
+  double youngs_modulus = 0.0;  ///< E [Pa]
+  double poisson_ratio = 0.0;   ///< nu [-]
+};
+
+/// Bond parameters of the case (`bond:` block).
+struct BondModel {
+  double alpha = 1.0;  ///< alpha_adh, 0 <= alpha < 3/2
+  AdhesionInput input = AdhesionInput::kEquilibriumOverlap;
+  double stiffness = 0.0;            ///< k_adh [N/m^alpha] when input == kStiffness
+  double equilibrium_overlap = 0.0;  ///< delta_eq [m] when input == kEquilibriumOverlap
+  double damping_ratio = 0.0;        ///< xi_bond
+  BondCriterion criterion = BondCriterion::kAlways;
+};
+
+/// One explicitly listed particle.
+struct ParticleSpec {
+  int material = 0;  ///< index into Case::materials
+  double radius = 0.0;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+};
+
+/// Everything a run needs, validated: the output of the case-file reader.
+struct Case {
+  std::string source;  ///< file the case came from, for messages
+  std::vector<Material> materials;
+  double contact_damping = 0.0;  ///< xi_con
+  BondModel bond;
+  double time_step = 0.0;  ///< [s]
+  double end_time = 0.0;   ///< [s]
+  Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
+  std::vector<ParticleSpec> particles;
+  std::string output_directory = "output";
+
+  /// Bond-law coefficients of material pair (a, b).
+  PairCoefficients pair_coefficients(int a, int b) const;
+};
+
+}  // namespace bondem

@@ -1,0 +1,43 @@
+#include "solver/scene.hpp"
+
+#include <numbers>
+
+namespace bondem {
+
+double sphere_mass(double radius, double density) {
+  return 4.0 / 3.0 * std::numbers::pi * radius * radius * radius * density;
+}
+
+PairCoefficients Case::pair_coefficients(int a, int b) const {
+  const Material& m_a = materials[static_cast<std::size_t>(a)];
+  const Material& m_b = materials[static_cast<std::size_t>(b)];
+  const double e_star = effective_modulus(m_a.youngs_modulus, m_a.poisson_ratio, m_b.youngs_modulus,
+                                          m_b.poisson_ratio);
+  const double strength =
+      bond.input == AdhesionInput::kStiffness ? bond.stiffness : bond.equilibrium_overlap;
+  return make_pair_coefficients(e_star, contact_damping, bond.damping_ratio, bond.alpha, bond.input,
+                                strength);
+}
+
+Scene build_scene(const Case& description) {
+  Scene scene;
+  scene.material_count = static_cast<int>(description.materials.size());
+  for (int a = 0; a < scene.material_count; ++a) {
+    for (int b = 0; b < scene.material_count; ++b) {
+      scene.pair_table.push_back(description.pair_coefficients(a, b));
+    }
+  }
+  scene.alpha = description.bond.alpha;
+  scene.criterion = description.bond.criterion;
+  scene.gravity = description.gravity;
+  scene.time_step = description.time_step;
+  std::int64_t next_id = 0;
+  for (const ParticleSpec& spec : description.particles) {
+    const double density = description.materials[static_cast<std::size_t>(spec.material)].density;
+    scene.particles.add(next_id++, spec.material, spec.radius, sphere_mass(spec.radius, density),
+                        spec.position.data(), spec.velocity.data());
+  }
+  return scene;
+}
+
+}  // namespace bondem

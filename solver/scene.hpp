@@ -1,0 +1,36 @@
+#pragma once
+/// @file scene.hpp
+/// The runtime scene built from a case: particle arrays, the material-pair table and body forces.
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "solver/case.hpp"
+#include "solver/pair.hpp"
+#include "solver/particles.hpp"
+
+namespace bondem {
+
+/// What the stepper advances: particles plus the constant model data their forces need.
+struct Scene {
+  Particles particles;
+  int material_count = 0;
+  std::vector<PairCoefficients> pair_table;  ///< material_count^2 entries, row-major
+  double alpha = 1.0;                        ///< alpha_adh of every pair
+  BondCriterion criterion = BondCriterion::kAlways;
+  Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
+  double time_step = 0.0;
+
+  /// Coefficients of material pair (a, b).
+  const PairCoefficients& pair(int a, int b) const {
+    return pair_table[static_cast<std::size_t>(a * material_count + b)];
+  }
+};
+
+/// Build the scene of a validated case; particle ids are their list positions.
+Scene build_scene(const Case& description);
+
+/// Mass of a sphere of the given radius and density.
+double sphere_mass(double radius, double density);
+
+}  // namespace bondem

@@ -1,0 +1,40 @@
+# Runs the bondem executable on bad input: each call must exit with status 2, print one line
+# naming the problem, and leave no output file behind.
+file(REMOVE_RECURSE ${WORK})
+file(MAKE_DIRECTORY ${WORK})
+file(READ ${CASES}/paper_5_1.yaml valid)
+string(REPLACE "damping_ratio: 0.5" "damping_ratoi: 0.5" typo "${valid}")
+file(WRITE ${WORK}/typo.yaml "${typo}")
+
+function(expect_bad_input expected_text)
+  execute_process(COMMAND ${BONDEM} ${ARGN} RESULT_VARIABLE status ERROR_VARIABLE err
+                  OUTPUT_VARIABLE out)
+  if(NOT status EQUAL 2)
+    message(FATAL_ERROR "expected exit 2 from '${ARGN}', got ${status}: ${err}")
+  endif()
+  string(FIND "${err}" "${expected_text}" found)
+  if(found EQUAL -1)
+    message(FATAL_ERROR "'${ARGN}': stderr lacks '${expected_text}': ${err}")
+  endif()
+  string(STRIP "${err}" stripped)
+  string(FIND "${stripped}" "\n" newline)
+  if(NOT newline EQUAL -1)
+    message(FATAL_ERROR "'${ARGN}': expected a one-line reason, got: ${err}")
+  endif()
+endfunction()
+
+expect_bad_input("typo.yaml:17:3: 'bond.damping_ratoi': unknown key" info ${WORK}/typo.yaml)
+expect_bad_input("cannot open" info ${WORK}/missing.yaml)
+expect_bad_input("--set materials.powder.density=abc" collide ${CASES}/paper_5_1.yaml
+                 --velocity 1 --set materials.powder.density=abc)
+expect_bad_input("exactly one of" collide ${CASES}/paper_5_1.yaml)
+expect_bad_input("need 0 < V0 < V1" collide ${CASES}/paper_5_1.yaml --sweep 3:1:4
+                 --out ${WORK}/sweep.csv)
+expect_bad_input("--velocity" collide ${CASES}/paper_5_1.yaml --velocity fast)
+# A run that fails part-way must not leave a truncated file.
+expect_bad_input("positive" collide ${CASES}/paper_5_1.yaml --velocity -1
+                 --trace ${WORK}/trace.csv)
+file(GLOB leftovers ${WORK}/trace.csv* ${WORK}/sweep.csv*)
+if(leftovers)
+  message(FATAL_ERROR "failed runs left files behind: ${leftovers}")
+endif()
