@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Installs what bondem needs to build, test and plot, from Debian's packages only.
+# Idempotent: packages already installed are skipped, and nothing is fetched when all are present.
+set -euo pipefail
+
+packages=(
+  g++ cmake make                      # toolchain
+  libeigen3-dev libnanoflann-dev      # small-vector maths, kd-tree (neighbor oracle)
+  libvtk9-dev                         # VTK XML output for ParaView
+  libyaml-cpp-dev libcli11-dev        # case files, command line
+  libgtest-dev libbenchmark-dev       # tests, microbenchmarks
+  gnuplot-nox                         # figures of the main job
+)
+
+missing=()
+for package in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$package")
+  fi
+done
+
+if ((${#missing[@]} == 0)); then
+  echo "install-deps: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+sudo=""
+if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi
+echo "install-deps: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$sudo apt-get update -qq
+$sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"

@@ -1,0 +1,7 @@
+#!/usr/bin/env bash
+# The whole test suite from a clean checkout: install what is missing, build, run ctest.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/install-deps.sh
+scripts/build.sh
+ctest --preset release -j "$(nproc)"
