@@ -3,9 +3,12 @@
 /// The validated description of a simulation case, as read from a case file (io/case_file.hpp).
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "geometry/domain.hpp"
+#include "geometry/walls.hpp"
 #include "solver/bond_law.hpp"
 #include "solver/pair.hpp"
 
@@ -46,8 +49,15 @@ struct Case {
   double time_step = 0.0;  ///< [s]
   double end_time = 0.0;   ///< [s]
   Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
-  std::vector<ParticleSpec> particles;
+  std::vector<ParticleSpec> particles;  ///< explicit ones first, then each insertion in order
+  std::optional<Domain> domain;  ///< absent: the particles' bounding box, padded, not periodic
+  std::vector<PlaneWall> walls;
+  double skin = 0.0;          ///< Verlet skin [m]; 0 picks 0.2 x the largest radius
+  int reorder_interval = 20;  ///< neighbor-list builds between reorderings by cell (0: never)
   std::string output_directory = "output";
+  double history_interval = 0.0;  ///< [s] between history rows; 0 picks end / 100
+  /// Region whose particle centres define the reported bed solid fraction and coordination.
+  std::optional<Domain> analysis_region;
 
   /// Bond-law coefficients of material pair (a, b).
   PairCoefficients pair_coefficients(int a, int b) const;

@@ -3,9 +3,14 @@
 /// Particle storage as a structure of arrays: one contiguous array per field.
 
 #include <cstdint>
+#include <initializer_list>
 #include <vector>
 
 namespace bondem {
+
+/// Below this many particles loops run on one thread: forking a team costs more than the work,
+/// and idle threads spinning at barriers starve other processes. Results do not depend on it.
+inline constexpr std::size_t kMinParallelParticles = 2048;
 
 /// Per-particle state. Index i addresses the same particle in every array; `id` is the stable
 /// identity that survives reordering.
@@ -38,6 +43,24 @@ struct Particles {
     mass.push_back(particle_mass);
     inv_mass.push_back(1.0 / particle_mass);
     return id.size() - 1;
+  }
+
+  /// Reorder every array so that new index k holds old particle order[k].
+  void permute(const std::vector<std::uint32_t>& order) {
+    permute_field(id, order);
+    permute_field(material, order);
+    for (std::vector<double>* field :
+         {&x, &y, &z, &vx, &vy, &vz, &fx, &fy, &fz, &radius, &mass, &inv_mass}) {
+      permute_field(*field, order);
+    }
+  }
+
+ private:
+  template <class T>
+  static void permute_field(std::vector<T>& field, const std::vector<std::uint32_t>& order) {
+    std::vector<T> reordered(field.size());
+    for (std::size_t k = 0; k < order.size(); ++k) reordered[k] = field[order[k]];
+    field.swap(reordered);
   }
 };
 

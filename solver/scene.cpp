@@ -1,5 +1,6 @@
 #include "solver/scene.hpp"
 
+#include <algorithm>
 #include <numbers>
 
 namespace bondem {
@@ -31,6 +32,26 @@ Scene build_scene(const Case& description) {
   scene.criterion = description.bond.criterion;
   scene.gravity = description.gravity;
   scene.time_step = description.time_step;
+  scene.walls = description.walls;
+  double max_radius = 0.0;
+  for (const ParticleSpec& spec : description.particles)
+    max_radius = std::max(max_radius, spec.radius);
+  scene.skin = description.skin > 0.0 ? description.skin : 0.2 * max_radius;
+  scene.reorder_interval = description.reorder_interval;
+  if (description.domain) {
+    scene.domain = *description.domain;
+  } else if (!description.particles.empty()) {
+    // Padded bounding box: only sizes the cell grid, particles may still leave it.
+    Eigen::Vector3d lo = description.particles.front().position;
+    Eigen::Vector3d hi = lo;
+    for (const ParticleSpec& spec : description.particles) {
+      lo = lo.cwiseMin(spec.position);
+      hi = hi.cwiseMax(spec.position);
+    }
+    const double pad = 4.0 * max_radius + scene.skin;
+    scene.domain.min = lo.array() - pad;
+    scene.domain.max = hi.array() + pad;
+  }
   std::int64_t next_id = 0;
   for (const ParticleSpec& spec : description.particles) {
     const double density = description.materials[static_cast<std::size_t>(spec.material)].density;

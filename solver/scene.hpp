@@ -5,6 +5,8 @@
 #include <Eigen/Core>
 #include <vector>
 
+#include "geometry/domain.hpp"
+#include "geometry/walls.hpp"
 #include "solver/case.hpp"
 #include "solver/pair.hpp"
 #include "solver/particles.hpp"
@@ -20,6 +22,10 @@ struct Scene {
   BondCriterion criterion = BondCriterion::kAlways;
   Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
   double time_step = 0.0;
+  Domain domain;                 ///< cell-grid bounds and periodic axes
+  std::vector<PlaneWall> walls;  ///< static planes (a box container is six)
+  double skin = 0.0;             ///< Verlet skin [m]
+  int reorder_interval = 20;     ///< sort particles by cell every this many list builds (0: never)
 
   /// Coefficients of material pair (a, b).
   const PairCoefficients& pair(int a, int b) const {

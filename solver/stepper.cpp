@@ -9,38 +9,36 @@ Stepper::Stepper(Scene& scene, PairFlag pair_flag)
   if (scene_.criterion == BondCriterion::kPairFlag && !pair_flag_) {
     throw std::invalid_argument("bond criterion 'pair flag' needs a pair-flag supplier");
   }
+  list_.build(scene_.particles, scene_.domain, scene_.skin, scene_.reorder_interval > 0);
   compute_forces();
 }
 
 template <class Adhesion>
 ContactSummary Stepper::dispatch_criterion(Adhesion adhesion) {
-  Particles& p = scene_.particles;
+  const Particles& p = scene_.particles;
   switch (scene_.criterion) {
     case BondCriterion::kAlways:
-      return accumulate_contact_forces(p, scene_, pairs_, adhesion,
-                                       [](std::size_t, std::size_t) { return true; });
+      return compute_pair_forces(
+          p, scene_, list_, adhesion, [](std::size_t, std::size_t) { return true; }, pair_forces_);
     case BondCriterion::kNever:
-      return accumulate_contact_forces(p, scene_, pairs_, adhesion,
-                                       [](std::size_t, std::size_t) { return false; });
+      return compute_pair_forces(
+          p, scene_, list_, adhesion, [](std::size_t, std::size_t) { return false; }, pair_forces_);
     case BondCriterion::kPairFlag:
-      return accumulate_contact_forces(
-          p, scene_, pairs_, adhesion,
-          [&](std::size_t i, std::size_t j) { return pair_flag_(p.id[i], p.id[j]); });
+      return compute_pair_forces(
+          p, scene_, list_, adhesion,
+          [&](std::size_t i, std::size_t j) { return pair_flag_(p.id[i], p.id[j]); }, pair_forces_);
   }
   return {};
 }
 
 void Stepper::compute_forces() {
-  Particles& p = scene_.particles;
-  const std::size_t n = p.size();
-  for (std::size_t i = 0; i < n; ++i) {
-    p.fx[i] = p.mass[i] * scene_.gravity.x();
-    p.fy[i] = p.mass[i] * scene_.gravity.y();
-    p.fz[i] = p.mass[i] * scene_.gravity.z();
-  }
-  find_pairs_all(p, 0.0, pairs_);
-  contacts_ = scene_.alpha == 1.0 ? dispatch_criterion(LinearAdhesion{})
-                                  : dispatch_criterion(GeneralAdhesion{scene_.alpha});
+  pair_forces_.resize(list_.pair_count());
+  ContactSummary pairs = scene_.alpha == 1.0 ? dispatch_criterion(LinearAdhesion{})
+                                             : dispatch_criterion(GeneralAdhesion{scene_.alpha});
+  const ContactSummary walls = gather_forces(scene_.particles, scene_, list_, pair_forces_);
+  pairs.wall_contacts = walls.wall_contacts;
+  pairs.max_overlap = std::max(pairs.max_overlap, walls.max_overlap);
+  contacts_ = pairs;
 }
 
 void Stepper::step() {
@@ -48,6 +46,7 @@ void Stepper::step() {
   const double dt = scene_.time_step;
   const double half_dt = 0.5 * dt;
   const std::size_t n = p.size();
+#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles)
   for (std::size_t i = 0; i < n; ++i) {
     const double kick = half_dt * p.inv_mass[i];
     p.vx[i] += kick * p.fx[i];
@@ -57,7 +56,16 @@ void Stepper::step() {
     p.y[i] += dt * p.vy[i];
     p.z[i] += dt * p.vz[i];
   }
+  // Two particles moving toward each other close the gap by twice the largest displacement:
+  // rebuild once that displacement exceeds half the skin.
+  const double half_skin = 0.5 * scene_.skin;
+  if (list_.max_displacement_sq(p) > half_skin * half_skin) {
+    const bool reorder =
+        scene_.reorder_interval > 0 && (list_.builds % scene_.reorder_interval) == 0;
+    list_.build(p, scene_.domain, scene_.skin, reorder);
+  }
   compute_forces();
+#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles)
   for (std::size_t i = 0; i < n; ++i) {
     const double kick = half_dt * p.inv_mass[i];
     p.vx[i] += kick * p.fx[i];
@@ -65,6 +73,27 @@ void Stepper::step() {
     p.vz[i] += kick * p.fz[i];
   }
   time_ = static_cast<double>(++step_count_) * dt;
+}
+
+std::vector<Eigen::Vector3d> Stepper::wall_forces() const {
+  std::vector<Eigen::Vector3d> totals(scene_.walls.size(), Eigen::Vector3d::Zero());
+  const Particles& p = scene_.particles;
+  for (std::size_t w = 0; w < scene_.walls.size(); ++w) {
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      Eigen::Vector3d f;
+      if (wall_force(p, scene_, scene_.walls[w], i, f) > 0.0) totals[w] -= f;
+    }
+  }
+  return totals;
+}
+
+double Stepper::kinetic_energy() const {
+  const Particles& p = scene_.particles;
+  double energy = 0.0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    energy += 0.5 * p.mass[i] * (p.vx[i] * p.vx[i] + p.vy[i] * p.vy[i] + p.vz[i] * p.vz[i]);
+  }
+  return energy;
 }
 
 }  // namespace bondem

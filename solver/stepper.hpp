@@ -7,18 +7,20 @@
 #include <vector>
 
 #include "solver/contact_kernel.hpp"
-#include "solver/neighbors.hpp"
+#include "solver/neighbor_list.hpp"
 #include "solver/scene.hpp"
 
 namespace bondem {
 
-/// Advances a scene in time. Owns the neighbor list; the scene owns the particles.
+/// Advances a scene in time. Owns the neighbor list and per-pair force slots; the scene owns the
+/// particles. OpenMP-parallel; the state after any number of steps is the same bytes for any
+/// thread count.
 class Stepper {
  public:
   /// Pair flag for BondCriterion::kPairFlag, called with the particles' stable ids.
   using PairFlag = std::function<bool(std::int64_t id_i, std::int64_t id_j)>;
 
-  /// Prepare to step @p scene; evaluates the initial forces.
+  /// Prepare to step @p scene: builds the neighbor list and evaluates the initial forces.
   explicit Stepper(Scene& scene, PairFlag pair_flag = {});
 
   /// One velocity-Verlet step of scene.time_step.
@@ -30,6 +32,12 @@ class Stepper {
   std::int64_t step_count() const { return step_count_; }
   /// Contacts seen by the last force evaluation.
   const ContactSummary& contacts() const { return contacts_; }
+  /// The current neighbor list (for analysis and tests).
+  const NeighborList& neighbors() const { return list_; }
+  /// Force each wall exerts on the particles now, in scene.walls order (summed in index order).
+  std::vector<Eigen::Vector3d> wall_forces() const;
+  /// Kinetic energy of translation, summed in index order [J].
+  double kinetic_energy() const;
 
  private:
   void compute_forces();
@@ -38,7 +46,8 @@ class Stepper {
 
   Scene& scene_;
   PairFlag pair_flag_;
-  std::vector<ContactPair> pairs_;
+  NeighborList list_;
+  PairForces pair_forces_;
   ContactSummary contacts_;
   double time_ = 0.0;
   std::int64_t step_count_ = 0;

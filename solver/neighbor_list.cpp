@@ -1,0 +1,213 @@
+#include "solver/neighbor_list.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace bondem {
+namespace {
+
+constexpr std::uint8_t image_code(int sx, int sy, int sz) {
+  return static_cast<std::uint8_t>((sx + 1) + 3 * (sy + 1) + 9 * (sz + 1));
+}
+
+}  // namespace
+
+void NeighborList::bin(const Particles& p, const Domain& domain, double cell_size) {
+  const std::size_t n = p.size();
+  const Eigen::Vector3d length = domain.length();
+  // Bound the grid to a few cells per particle: an oversized box must not cost memory.
+  const double max_cells = 8.0 * static_cast<double>(n) + 1000.0;
+  double width = cell_size;
+  for (;;) {
+    double total = 1.0;
+    for (int a = 0; a < 3; ++a) total *= std::max(1.0, std::floor(length[a] / width));
+    if (total <= max_cells) break;
+    width *= 1.25;
+  }
+  for (int a = 0; a < 3; ++a) {
+    cells_[a] = std::max(1, static_cast<int>(std::floor(length[a] / width)));
+    cell_width_[a] = length[a] / cells_[a];
+    if (domain.periodic[a] && cells_[a] < 3) {
+      std::ostringstream message;
+      message << "periodic axis "
+              << "xyz"[a] << " of length " << length[a]
+              << " m is shorter than three neighbor cells of " << cell_size
+              << " m (largest diameter + skin); enlarge the domain";
+      throw std::runtime_error(message.str());
+    }
+  }
+  const std::size_t cell_count = static_cast<std::size_t>(cells_[0]) * cells_[1] * cells_[2];
+  cell_of_.resize(n);
+  const double* coords[3] = {p.x.data(), p.y.data(), p.z.data()};
+  bool finite = true;
+#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) reduction(&& : finite)
+  for (std::size_t i = 0; i < n; ++i) {
+    int c[3];
+    for (int a = 0; a < 3; ++a) {
+      const double u = (coords[a][i] - domain.min[a]) / cell_width_[a];
+      finite = finite && std::isfinite(u);
+      // Clamping is 1-Lipschitz in cell units, so particles outside the box still meet every
+      // neighbor within one cell: the search stays exact.
+      c[a] = std::isfinite(u) ? std::clamp(static_cast<int>(std::floor(u)), 0, cells_[a] - 1) : 0;
+    }
+    cell_of_[i] = static_cast<std::uint32_t>(c[0] + cells_[0] * (c[1] + cells_[1] * c[2]));
+  }
+  if (!finite) {
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!std::isfinite(p.x[i]) || !std::isfinite(p.y[i]) || !std::isfinite(p.z[i])) {
+        throw std::runtime_error("particle id " + std::to_string(p.id[i]) +
+                                 " has a non-finite position: the run blew up (time step too "
+                                 "large for the contact stiffness?)");
+      }
+    }
+  }
+  // count -> scan -> fill; the serial fill keeps each cell's particles in index order.
+  cell_begin_.assign(cell_count + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) ++cell_begin_[cell_of_[i] + 1];
+  for (std::size_t c = 0; c < cell_count; ++c) cell_begin_[c + 1] += cell_begin_[c];
+  cell_items_.resize(n);
+  std::vector<std::uint32_t> cursor(cell_begin_.begin(), cell_begin_.end() - 1);
+  for (std::size_t i = 0; i < n; ++i)
+    cell_items_[cursor[cell_of_[i]]++] = static_cast<std::uint32_t>(i);
+}
+
+void NeighborList::build(Particles& p, const Domain& domain, double skin, bool reorder) {
+  const std::size_t n = p.size();
+  const Eigen::Vector3d length = domain.length();
+  for (int a = 0; a < 3; ++a) {
+    if (!domain.periodic[a]) continue;
+    std::vector<double>& coord = a == 0 ? p.x : (a == 1 ? p.y : p.z);
+#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles)
+    for (std::size_t i = 0; i < n; ++i) {
+      coord[i] = wrap_periodic(coord[i], domain.min[a], length[a]);
+    }
+  }
+  for (int sz = -1; sz <= 1; ++sz) {
+    for (int sy = -1; sy <= 1; ++sy) {
+      for (int sx = -1; sx <= 1; ++sx) {
+        shifts[image_code(sx, sy, sz)] =
+            Eigen::Vector3d(sx * length.x(), sy * length.y(), sz * length.z());
+      }
+    }
+  }
+  double max_radius = 0.0;
+  for (std::size_t i = 0; i < n; ++i) max_radius = std::max(max_radius, p.radius[i]);
+  const double cell_size = std::max(2.0 * max_radius + skin, 1e-300);
+
+  bin(p, domain, cell_size);
+  if (reorder) {
+    p.permute(cell_items_);  // particles sorted by cell: neighbors become neighbors in memory
+    bin(p, domain, cell_size);
+  }
+
+  // Rows are built per particle in parallel into thread-local buffers, then concatenated in
+  // particle order: the list is the same for any number of threads.
+  std::vector<std::uint32_t> row_count(n);
+  const int threads = omp_get_max_threads();
+  std::vector<std::vector<std::uint32_t>> local_second(static_cast<std::size_t>(threads));
+  std::vector<std::vector<std::uint8_t>> local_image(static_cast<std::size_t>(threads));
+  std::vector<std::size_t> local_first(static_cast<std::size_t>(threads), n);
+#pragma omp parallel num_threads(threads) if (n >= kMinParallelParticles)
+  {
+    const auto t = static_cast<std::size_t>(omp_get_thread_num());
+    std::vector<std::uint32_t>& my_second = local_second[t];
+    std::vector<std::uint8_t>& my_image = local_image[t];
+#pragma omp for schedule(static)
+    for (std::size_t i = 0; i < n; ++i) {
+      if (local_first[t] == n) local_first[t] = i;
+      const std::uint32_t c = cell_of_[i];
+      const int home[3] = {static_cast<int>(c % static_cast<std::uint32_t>(cells_[0])),
+                           static_cast<int>(c / static_cast<std::uint32_t>(cells_[0]) %
+                                            static_cast<std::uint32_t>(cells_[1])),
+                           static_cast<int>(c / static_cast<std::uint32_t>(cells_[0] * cells_[1]))};
+      const std::size_t before = my_second.size();
+      for (int dz = -1; dz <= 1; ++dz) {
+        for (int dy = -1; dy <= 1; ++dy) {
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int offset[3] = {dx, dy, dz};
+            int neighbor[3];
+            bool inside = true;
+            for (int a = 0; a < 3; ++a) {
+              neighbor[a] = home[a] + offset[a];
+              if (domain.periodic[a]) {
+                neighbor[a] = (neighbor[a] + cells_[a]) % cells_[a];
+              } else if (neighbor[a] < 0 || neighbor[a] >= cells_[a]) {
+                inside = false;
+              }
+            }
+            // With one or two cells on a non-periodic axis the offsets -1 and +1 are skipped or
+            // distinct; with three or more periodic cells they are distinct too: no duplicates.
+            if (!inside) continue;
+            const std::size_t cell =
+                static_cast<std::size_t>(neighbor[0]) +
+                static_cast<std::size_t>(cells_[0]) *
+                    (static_cast<std::size_t>(neighbor[1]) +
+                     static_cast<std::size_t>(cells_[1]) * static_cast<std::size_t>(neighbor[2]));
+            for (std::uint32_t k = cell_begin_[cell]; k < cell_begin_[cell + 1]; ++k) {
+              const std::uint32_t j = cell_items_[k];
+              if (j <= i) continue;
+              double d[3] = {p.x[j] - p.x[i], p.y[j] - p.y[i], p.z[j] - p.z[i]};
+              int s[3] = {0, 0, 0};
+              for (int a = 0; a < 3; ++a) {
+                if (!domain.periodic[a]) continue;
+                s[a] = -static_cast<int>(std::nearbyint(d[a] / length[a]));
+                d[a] += s[a] * length[a];
+              }
+              const double reach = p.radius[i] + p.radius[j] + skin;
+              if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < reach * reach) {
+                my_second.push_back(j);
+                my_image.push_back(image_code(s[0], s[1], s[2]));
+              }
+            }
+          }
+        }
+      }
+      row_count[i] = static_cast<std::uint32_t>(my_second.size() - before);
+    }
+  }
+  row_begin.assign(n + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) row_begin[i + 1] = row_begin[i] + row_count[i];
+  second.resize(row_begin[n]);
+  image.resize(row_begin[n]);
+  for (std::size_t t = 0; t < local_second.size(); ++t) {
+    if (local_first[t] == n) continue;
+    std::copy(local_second[t].begin(), local_second[t].end(),
+              second.begin() + row_begin[local_first[t]]);
+    std::copy(local_image[t].begin(), local_image[t].end(),
+              image.begin() + row_begin[local_first[t]]);
+  }
+
+  // Transposed index, count -> scan -> fill in pair order.
+  column_begin.assign(n + 1, 0);
+  for (const std::uint32_t j : second) ++column_begin[j + 1];
+  for (std::size_t i = 0; i < n; ++i) column_begin[i + 1] += column_begin[i];
+  column_pair.resize(second.size());
+  std::vector<std::uint32_t> cursor(column_begin.begin(), column_begin.end() - 1);
+  for (std::size_t k = 0; k < second.size(); ++k) {
+    column_pair[cursor[second[k]]++] = static_cast<std::uint32_t>(k);
+  }
+
+  x0_ = p.x;
+  y0_ = p.y;
+  z0_ = p.z;
+  ++builds;
+}
+
+double NeighborList::max_displacement_sq(const Particles& p) const {
+  const std::size_t n = p.size();
+  double largest = 0.0;
+#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) reduction(max : largest)
+  for (std::size_t i = 0; i < n; ++i) {
+    const double dx = p.x[i] - x0_[i];
+    const double dy = p.y[i] - y0_[i];
+    const double dz = p.z[i] - z0_[i];
+    largest = std::max(largest, dx * dx + dy * dy + dz * dz);
+  }
+  return largest;
+}
+
+}  // namespace bondem

@@ -1,0 +1,52 @@
+#pragma once
+/// @file neighbor_list.hpp
+/// Verlet neighbor list on a uniform cell grid (spatial hashing), built count -> scan -> fill.
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "geometry/domain.hpp"
+#include "solver/particles.hpp"
+
+namespace bondem {
+
+/// Half neighbor list in compressed rows: row i lists the particles j > i whose surfaces were
+/// closer than the skin at the last build, each with the periodic image of j to use.
+/// A transposed index lists, for every particle j, the pairs in which it is the second member, so
+/// that per-pair forces can be gathered per particle in a fixed order.
+class NeighborList {
+ public:
+  /// Rebuild for the current positions. Wraps periodic coordinates into the domain and, when
+  /// @p reorder is set, first sorts all particle arrays by cell for cache locality.
+  /// Throws std::runtime_error on a non-finite position or a periodic axis too short for the grid.
+  void build(Particles& p, const Domain& domain, double skin, bool reorder);
+
+  /// Largest squared displacement of any particle since the last build.
+  double max_displacement_sq(const Particles& p) const;
+
+  /// Number of candidate pairs.
+  std::size_t pair_count() const { return second.size(); }
+
+  std::vector<std::uint32_t>
+      row_begin;  ///< size n + 1: pairs of particle i are [row_begin[i], row_begin[i+1])
+  std::vector<std::uint32_t> second;        ///< j of each pair
+  std::vector<std::uint8_t> image;          ///< index into shifts: periodic image of j seen from i
+  std::vector<std::uint32_t> column_begin;  ///< size n + 1: transposed rows
+  std::vector<std::uint32_t> column_pair;   ///< pair indices in which particle j is second
+  std::array<Eigen::Vector3d, 27> shifts;   ///< add to x_j - x_i for image code k
+  std::int64_t builds = 0;                  ///< number of builds so far
+
+ private:
+  void bin(const Particles& p, const Domain& domain, double cell_size);
+
+  std::array<int, 3> cells_{1, 1, 1};
+  Eigen::Vector3d cell_width_ = Eigen::Vector3d::Ones();
+  std::vector<std::uint32_t> cell_of_;     ///< cell of each particle
+  std::vector<std::uint32_t> cell_begin_;  ///< size cells + 1
+  std::vector<std::uint32_t> cell_items_;  ///< particles sorted by cell, by index within a cell
+  std::vector<double> x0_, y0_, z0_;       ///< positions at the last build
+};
+
+}  // namespace bondem
