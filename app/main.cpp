@@ -1,4 +1,6 @@
 // bondem command-line entry point: parses arguments, loads the case, calls the library.
+#include <omp.h>
+
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
@@ -9,8 +11,10 @@
 #include <string>
 #include <vector>
 
+#include "default_case.hpp"
 #include "io/atomic_file.hpp"
 #include "io/case_file.hpp"
+#include "io/run.hpp"
 #include "solver/calculator.hpp"
 #include "solver/collision.hpp"
 
@@ -242,6 +246,51 @@ int run_collide(const CollideOptions& o) {
   return 0;
 }
 
+struct RunCommand {
+  std::string case_path;
+  std::vector<std::string> overrides;
+  std::optional<int> threads;
+  std::string output;
+  bool quiet = false;
+};
+
+int run_run(const RunCommand& o) {
+  const Case c = o.case_path.empty() ? bondem::parse_case(bondem::kDefaultCase,
+                                                          "<built-in packing case>", o.overrides)
+                                     : bondem::load_case(o.case_path, o.overrides);
+  if (o.threads) {
+    if (*o.threads < 1) throw UsageError("--threads must be at least 1");
+    omp_set_num_threads(*o.threads);
+  }
+  if (!o.quiet) {
+    std::cerr << "bondem run: " << (o.case_path.empty() ? "built-in packing case" : o.case_path)
+              << ", " << c.particles.size() << " particles, " << omp_get_max_threads()
+              << " thread(s)\n";
+  }
+  bondem::RunOptions options;
+  options.output_directory = o.output;
+  options.quiet = o.quiet;
+  const bondem::RunResult r = bondem::run_case(c, options, std::cerr);
+  const std::string directory = o.output.empty() ? c.output_directory : o.output;
+  std::cout << "output_directory = " << directory << "\n"
+            << "particles = " << r.particles << "\n"
+            << "steps = " << r.steps << "\n"
+            << "threads = " << r.threads << "\n"
+            << "wall_time = " << r.wall_seconds << " s\n"
+            << "particle_steps_per_second = " << r.particle_steps_per_second << "\n"
+            << "neighbor_builds = " << r.neighbor_builds << "\n"
+            << "contacts = " << r.contacts.contacts << "\n"
+            << "bonds = " << r.contacts.bonds << "\n"
+            << "wall_contacts = " << r.contacts.wall_contacts << "\n"
+            << "max_overlap = " << r.contacts.max_overlap << " m\n"
+            << "bed_region = [" << r.packing_region.min.transpose() << "] .. ["
+            << r.packing_region.max.transpose() << "] m\n"
+            << "bed_particles = " << r.packing.particles << "\n"
+            << "bed_solid_fraction = " << r.packing.solid_fraction << "\n"
+            << "mean_coordination = " << r.packing.mean_coordination << "\n";
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -270,6 +319,15 @@ int main(int argc, char** argv) {
   collide_cmd->add_option("--threshold", collide.threshold,
                           "Bisect the sticking speed between V0:V1");
 
+  RunCommand run;
+  auto* run_cmd = app.add_subcommand(
+      "run", "Run a case; without a case file, the built-in powder-bed packing case");
+  run_cmd->add_option("case", run.case_path, "Case file (YAML)");
+  run_cmd->add_option("--threads", run.threads, "OpenMP threads (default: OMP_NUM_THREADS or all)");
+  run_cmd->add_option("--output", run.output, "Output directory (default: output.directory)");
+  run_cmd->add_option("--set", run.overrides, "Override a scalar: KEY=VALUE (dotted key)");
+  run_cmd->add_flag("--quiet", run.quiet, "No progress lines");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -284,6 +342,7 @@ int main(int argc, char** argv) {
   try {
     if (info->parsed()) return run_info(info_case, info_overrides, info_velocity);
     if (collide_cmd->parsed()) return run_collide(collide);
+    if (run_cmd->parsed()) return run_run(run);
   } catch (const bondem::CaseError& e) {
     std::cerr << "bondem: error: " << e.what() << "\n";
     return kBadInput;

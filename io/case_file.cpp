@@ -8,6 +8,8 @@
 #include <map>
 #include <sstream>
 
+#include "solver/insertion.hpp"
+
 namespace bondem {
 namespace {
 
@@ -83,6 +85,29 @@ class Reader {
   double non_negative(const YAML::Node& node, const std::string& path) const {
     const double value = number(node, path);
     if (value < 0.0) fail(node, path, "must not be negative, got " + node.Scalar());
+    return value;
+  }
+
+  long long integer(const YAML::Node& node, const std::string& path, long long lo,
+                    long long hi) const {
+    if (!node.IsScalar()) fail(node, path, "expected a whole number");
+    long long value = 0;
+    if (!YAML::convert<long long>::decode(node, value)) {
+      fail(node, path, "expected a whole number, got '" + node.Scalar() + "'");
+    }
+    if (value < lo || value > hi) {
+      fail(node, path,
+           "must lie in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " +
+               node.Scalar());
+    }
+    return value;
+  }
+
+  bool boolean(const YAML::Node& node, const std::string& path) const {
+    bool value = false;
+    if (!node.IsScalar() || !YAML::convert<bool>::decode(node, value)) {
+      fail(node, path, "expected true or false");
+    }
     return value;
   }
 
@@ -174,14 +199,274 @@ BondCriterion criterion_from(const Reader& reader, const YAML::Node& node,
   reader.fail(node, path, "unknown criterion '" + name + "' (expected always or never)");
 }
 
+int material_index(const Reader& reader, const Case& c, const YAML::Node& body,
+                   const std::string& path) {
+  const YAML::Node material = reader.require(body, path, "material");
+  const std::string name = reader.text(material, path + ".material");
+  const auto found = std::find_if(c.materials.begin(), c.materials.end(),
+                                  [&](const Material& m) { return m.name == name; });
+  if (found == c.materials.end()) {
+    reader.fail(material, path + ".material", "no material named '" + name + "'");
+  }
+  return static_cast<int>(found - c.materials.begin());
+}
+
+Box read_box(const Reader& reader, const YAML::Node& node, const std::string& path) {
+  reader.expect_map(node, path);
+  reader.check_keys(node, path, {"min", "max"});
+  Box box;
+  box.min = reader.vector3(reader.require(node, path, "min"), path + ".min");
+  const YAML::Node max = reader.require(node, path, "max");
+  box.max = reader.vector3(max, path + ".max");
+  if (!(box.max.array() > box.min.array()).all()) {
+    reader.fail(max, path + ".max", "must exceed min on every axis");
+  }
+  return box;
+}
+
+Domain read_domain(const Reader& reader, const YAML::Node& node, const std::string& path) {
+  reader.expect_map(node, path);
+  reader.check_keys(node, path, {"min", "max", "periodic"});
+  Domain d;
+  d.min = reader.vector3(reader.require(node, path, "min"), path + ".min");
+  const YAML::Node max = reader.require(node, path, "max");
+  d.max = reader.vector3(max, path + ".max");
+  if (!(d.max.array() > d.min.array()).all()) {
+    reader.fail(max, path + ".max", "must exceed min on every axis");
+  }
+  if (const YAML::Node periodic = node["periodic"]) {
+    if (!periodic.IsSequence() || periodic.size() != 3) {
+      reader.fail(periodic, path + ".periodic", "expected a list of three booleans [x, y, z]");
+    }
+    for (std::size_t a = 0; a < 3; ++a) {
+      d.periodic[a] = reader.boolean(periodic[a], Reader::join(path + ".periodic", a));
+    }
+  }
+  return d;
+}
+
+void read_walls(const Reader& reader, Case& c, const YAML::Node& walls) {
+  if (!walls.IsSequence()) reader.fail(walls, "walls", "expected a list of walls");
+  for (std::size_t k = 0; k < walls.size(); ++k) {
+    const YAML::Node body = walls[k];
+    const std::string path = Reader::join("walls", k);
+    reader.expect_map(body, path);
+    const YAML::Node type = reader.require(body, path, "type");
+    const std::string kind = reader.text(type, path + ".type");
+    if (kind == "plane") {
+      reader.check_keys(body, path, {"type", "point", "normal", "material", "name"});
+      PlaneWall wall;
+      wall.point = reader.vector3(reader.require(body, path, "point"), path + ".point");
+      const YAML::Node normal = reader.require(body, path, "normal");
+      wall.normal = reader.vector3(normal, path + ".normal");
+      if (!(wall.normal.norm() > 0.0)) reader.fail(normal, path + ".normal", "must not be zero");
+      wall.normal.normalize();
+      wall.material = material_index(reader, c, body, path);
+      wall.name = body["name"] ? reader.text(body["name"], path + ".name") : path;
+      c.walls.push_back(wall);
+    } else if (kind == "box") {
+      reader.check_keys(body, path, {"type", "min", "max", "material", "open", "name"});
+      const Eigen::Vector3d lo = reader.vector3(reader.require(body, path, "min"), path + ".min");
+      const Eigen::Vector3d hi = reader.vector3(reader.require(body, path, "max"), path + ".max");
+      if (!(hi.array() > lo.array()).all()) {
+        reader.fail(body["max"], path + ".max", "must exceed min on every axis");
+      }
+      bool open[6] = {false, false, false, false, false, false};
+      if (const YAML::Node faces = body["open"]) {
+        if (!faces.IsSequence()) reader.fail(faces, path + ".open", "expected a list of faces");
+        for (std::size_t f = 0; f < faces.size(); ++f) {
+          const std::string face = reader.text(faces[f], Reader::join(path + ".open", f));
+          const auto* end = kBoxFaceNames + 6;
+          const auto* hit =
+              std::find_if(kBoxFaceNames, end, [&](const char* name) { return face == name; });
+          if (hit == end) {
+            reader.fail(faces[f], Reader::join(path + ".open", f),
+                        "unknown face '" + face + "' (x_min, x_max, y_min, y_max, z_min, z_max)");
+          }
+          open[hit - kBoxFaceNames] = true;
+        }
+      }
+      const std::string name = body["name"] ? reader.text(body["name"], path + ".name") : path;
+      for (const PlaneWall& wall :
+           box_walls(lo, hi, material_index(reader, c, body, path), open, name)) {
+        c.walls.push_back(wall);
+      }
+    } else {
+      reader.fail(type, path + ".type", "unknown wall type '" + kind + "' (plane or box)");
+    }
+  }
+}
+
+RadiusDistribution read_radius(const Reader& reader, const YAML::Node& node,
+                               const std::string& path) {
+  RadiusDistribution d;
+  if (node.IsScalar()) {
+    d.value = reader.positive(node, path);
+    return d;
+  }
+  reader.expect_map(node, path);
+  const YAML::Node kind_node = reader.require(node, path, "distribution");
+  const std::string kind = reader.text(kind_node, path + ".distribution");
+  const auto get = [&](const char* key, bool required) {
+    const YAML::Node value = node[key];
+    if (!value) {
+      if (required) reader.fail(node, Reader::join(path, key), "missing required key");
+      return 0.0;
+    }
+    return reader.positive(value, Reader::join(path, key));
+  };
+  if (kind == "constant") {
+    reader.check_keys(node, path, {"distribution", "value"});
+    d.value = get("value", true);
+  } else if (kind == "uniform") {
+    reader.check_keys(node, path, {"distribution", "min", "max"});
+    d.kind = RadiusDistribution::Kind::kUniform;
+    d.min = get("min", true);
+    d.max = get("max", true);
+  } else if (kind == "normal") {
+    reader.check_keys(node, path, {"distribution", "mean", "std_dev", "min", "max"});
+    d.kind = RadiusDistribution::Kind::kNormal;
+    d.mean = get("mean", true);
+    d.std_dev = get("std_dev", true);
+    d.min = get("min", false);
+    d.max = get("max", false);
+  } else if (kind == "lognormal") {
+    reader.check_keys(node, path, {"distribution", "median", "sigma", "min", "max"});
+    d.kind = RadiusDistribution::Kind::kLogNormal;
+    d.median = get("median", true);
+    d.sigma = get("sigma", true);
+    d.min = get("min", false);
+    d.max = get("max", false);
+  } else {
+    reader.fail(kind_node, path + ".distribution",
+                "unknown distribution '" + kind + "' (constant, uniform, normal, lognormal)");
+  }
+  try {
+    validate(d);
+  } catch (const std::invalid_argument& e) {
+    reader.fail(node, path, e.what());
+  }
+  return d;
+}
+
+void check_inside(const Reader& reader, const Case& c, const ParticleSpec& p,
+                  const YAML::Node& node, const std::string& path) {
+  if (c.domain) {
+    for (int a = 0; a < 3; ++a) {
+      if (p.position[a] < c.domain->min[a] || p.position[a] > c.domain->max[a]) {
+        reader.fail(node, path + ".position", "lies outside the domain");
+      }
+    }
+  }
+  for (const PlaneWall& wall : c.walls) {
+    if (distance_to(wall, p.position.x(), p.position.y(), p.position.z()) < p.radius) {
+      reader.fail(node, path, "overlaps wall '" + wall.name + "'");
+    }
+  }
+}
+
+/// Explicit particles must not overlap: a solver would start with an unphysical impulse.
+/// Sweep along x so that large lists stay O(N log N + close pairs).
+void check_explicit_overlaps(const Reader& reader, const Case& c, const YAML::Node& list) {
+  const std::size_t n = c.particles.size();
+  std::vector<std::size_t> order(n);
+  for (std::size_t k = 0; k < n; ++k) order[k] = k;
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return c.particles[a].position.x() < c.particles[b].position.x();
+  });
+  double max_radius = 0.0;
+  for (const ParticleSpec& p : c.particles) max_radius = std::max(max_radius, p.radius);
+  for (std::size_t a = 0; a < n; ++a) {
+    const ParticleSpec& p = c.particles[order[a]];
+    for (std::size_t b = a + 1; b < n; ++b) {
+      const ParticleSpec& q = c.particles[order[b]];
+      if (q.position.x() - p.position.x() > p.radius + max_radius) break;
+      const double reach = p.radius + q.radius;
+      // Touching is allowed; round-off of a written-out contact distance is not an overlap.
+      if ((q.position - p.position).norm() < reach * (1.0 - 1e-12)) {
+        const std::size_t first = std::min(order[a], order[b]);
+        const std::size_t later = std::max(order[a], order[b]);
+        reader.fail(list[later], Reader::join("particles", later),
+                    "overlaps particles." + std::to_string(first));
+      }
+    }
+  }
+}
+
+void read_insertions(const Reader& reader, Case& c, const YAML::Node& insert) {
+  if (!insert.IsSequence()) reader.fail(insert, "insert", "expected a list of insertions");
+  for (std::size_t k = 0; k < insert.size(); ++k) {
+    const YAML::Node body = insert[k];
+    const std::string path = Reader::join("insert", k);
+    reader.expect_map(body, path);
+    const YAML::Node type = reader.require(body, path, "type");
+    const std::string kind = reader.text(type, path + ".type");
+    std::vector<ParticleSpec> added;
+    Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+    try {
+      if (kind == "lattice") {
+        reader.check_keys(body, path,
+                          {"type", "region", "spacing", "radius", "material", "velocity"});
+        const Box region = read_box(reader, reader.require(body, path, "region"), path + ".region");
+        const double spacing =
+            reader.positive(reader.require(body, path, "spacing"), path + ".spacing");
+        const double radius =
+            reader.positive(reader.require(body, path, "radius"), path + ".radius");
+        added = insert_lattice(region, spacing, radius, material_index(reader, c, body, path));
+      } else if (kind == "random") {
+        reader.check_keys(body, path,
+                          {"type", "region", "material", "count", "solid_fraction", "radius",
+                           "seed", "velocity", "max_attempts"});
+        FillRequest request;
+        request.region = read_box(reader, reader.require(body, path, "region"), path + ".region");
+        request.material = material_index(reader, c, body, path);
+        request.radius =
+            read_radius(reader, reader.require(body, path, "radius"), path + ".radius");
+        const YAML::Node count = body["count"];
+        const YAML::Node fraction = body["solid_fraction"];
+        if ((count && fraction) || (!count && !fraction)) {
+          reader.fail(body, path, "give exactly one of count and solid_fraction");
+        }
+        if (count)
+          request.count =
+              static_cast<std::size_t>(reader.integer(count, path + ".count", 1, 100000000));
+        if (fraction) {
+          request.solid_fraction = reader.positive(fraction, path + ".solid_fraction");
+        }
+        if (const YAML::Node seed = body["seed"]) {
+          request.seed =
+              static_cast<std::uint64_t>(reader.integer(seed, path + ".seed", 0, 1LL << 62));
+        }
+        if (const YAML::Node attempts = body["max_attempts"]) {
+          request.max_attempts_per_particle = static_cast<std::size_t>(
+              reader.integer(attempts, path + ".max_attempts", 1, 100000000));
+        }
+        added = insert_random_fill(request, c.particles);
+      } else {
+        reader.fail(type, path + ".type", "unknown insertion '" + kind + "' (lattice or random)");
+      }
+    } catch (const CaseError&) {
+      throw;
+    } catch (const std::exception& e) {
+      reader.fail(body, path, e.what());
+    }
+    if (const YAML::Node v = body["velocity"]) velocity = reader.vector3(v, path + ".velocity");
+    for (ParticleSpec& p : added) {
+      p.velocity = velocity;
+      check_inside(reader, c, p, body, path);
+      c.particles.push_back(p);
+    }
+  }
+}
+
 Case read_case(const YAML::Node& root, const Reader& reader) {
   Case c;
   c.source = reader.source();
   if (!root || root.IsNull()) reader.fail(root, "", "the file is empty");
   reader.expect_map(root, "");
-  reader.check_keys(
-      root, "",
-      {"description", "materials", "contact", "bond", "time", "gravity", "particles", "output"});
+  reader.check_keys(root, "",
+                    {"description", "materials", "contact", "bond", "time", "gravity", "particles",
+                     "insert", "domain", "walls", "neighbors", "output", "analysis"});
 
   const YAML::Node materials = reader.require(root, "", "materials");
   reader.expect_map(materials, "materials");
@@ -259,7 +544,8 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
 
   if (const YAML::Node gravity = root["gravity"]) c.gravity = reader.vector3(gravity, "gravity");
 
-  const YAML::Node particles = reader.require(root, "", "particles");
+  const YAML::Node particles =
+      root["particles"] ? root["particles"] : YAML::Node(YAML::NodeType::Sequence);
   if (!particles.IsSequence()) reader.fail(particles, "particles", "expected a list of particles");
   for (std::size_t k = 0; k < particles.size(); ++k) {
     const YAML::Node body = particles[k];
@@ -267,14 +553,7 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
     reader.expect_map(body, path);
     reader.check_keys(body, path, {"material", "radius", "position", "velocity"});
     ParticleSpec spec;
-    const YAML::Node material = reader.require(body, path, "material");
-    const std::string name = reader.text(material, path + ".material");
-    const auto found = std::find_if(c.materials.begin(), c.materials.end(),
-                                    [&](const Material& m) { return m.name == name; });
-    if (found == c.materials.end()) {
-      reader.fail(material, path + ".material", "no material named '" + name + "'");
-    }
-    spec.material = static_cast<int>(found - c.materials.begin());
+    spec.material = material_index(reader, c, body, path);
     spec.radius = reader.positive(reader.require(body, path, "radius"), path + ".radius");
     spec.position = reader.vector3(reader.require(body, path, "position"), path + ".position");
     if (const YAML::Node velocity = body["velocity"]) {
@@ -283,12 +562,41 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
     c.particles.push_back(spec);
   }
 
+  const std::size_t explicit_count = c.particles.size();
+  check_explicit_overlaps(reader, c, particles);
+  if (const YAML::Node domain = root["domain"]) c.domain = read_domain(reader, domain, "domain");
+  if (const YAML::Node walls = root["walls"]) read_walls(reader, c, walls);
+  for (std::size_t k = 0; k < explicit_count; ++k) {
+    check_inside(reader, c, c.particles[k], particles[k], Reader::join("particles", k));
+  }
+  if (const YAML::Node insert = root["insert"]) read_insertions(reader, c, insert);
+  if (c.particles.empty()) reader.fail(root, "particles", "the case has no particles");
+
+  if (const YAML::Node neighbors = root["neighbors"]) {
+    reader.expect_map(neighbors, "neighbors");
+    reader.check_keys(neighbors, "neighbors", {"skin", "reorder_interval"});
+    if (const YAML::Node skin = neighbors["skin"]) c.skin = reader.positive(skin, "neighbors.skin");
+    if (const YAML::Node interval = neighbors["reorder_interval"]) {
+      c.reorder_interval =
+          static_cast<int>(reader.integer(interval, "neighbors.reorder_interval", 0, 1000000));
+    }
+  }
+
   if (const YAML::Node output = root["output"]) {
     reader.expect_map(output, "output");
-    reader.check_keys(output, "output", {"directory"});
+    reader.check_keys(output, "output", {"directory", "history_interval"});
     const YAML::Node directory = reader.require(output, "output", "directory");
     c.output_directory = reader.text(directory, "output.directory");
     if (c.output_directory.empty()) reader.fail(directory, "output.directory", "is empty");
+    if (const YAML::Node interval = output["history_interval"]) {
+      c.history_interval = reader.positive(interval, "output.history_interval");
+    }
+  }
+  if (const YAML::Node analysis = root["analysis"]) {
+    reader.expect_map(analysis, "analysis");
+    reader.check_keys(analysis, "analysis", {"region"});
+    c.analysis_region =
+        read_box(reader, reader.require(analysis, "analysis", "region"), "analysis.region");
   }
   return c;
 }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <sstream>
 #include <stdexcept>
@@ -69,7 +70,10 @@ PairReport compute_pair_report(const Case& description, int material_a, double r
   report.bond_stiffness =
       2.0 * e_star * std::sqrt(r_star * pair.equilibrium_overlap) -
       alpha * pair.adhesion_stiffness * std::pow(pair.equilibrium_overlap, alpha - 1.0);
-  report.bond_period = 2.0 * std::numbers::pi * std::sqrt(m_star / report.bond_stiffness);
+  // Without bonding there is no bond oscillation to resolve.
+  report.bond_period = description.bond.criterion == BondCriterion::kNever
+                           ? std::numeric_limits<double>::infinity()
+                           : 2.0 * std::numbers::pi * std::sqrt(m_star / report.bond_stiffness);
   report.reference_velocity = reference_velocity;
   report.max_overlap = hertz_max_overlap(e_star, r_star, m_star, reference_velocity);
   report.contact_time = hertz_contact_time(e_star, r_star, m_star, reference_velocity);

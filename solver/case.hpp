@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "geometry/box.hpp"
 #include "geometry/domain.hpp"
 #include "geometry/walls.hpp"
 #include "solver/bond_law.hpp"
@@ -57,7 +58,7 @@ struct Case {
   std::string output_directory = "output";
   double history_interval = 0.0;  ///< [s] between history rows; 0 picks end / 100
   /// Region whose particle centres define the reported bed solid fraction and coordination.
-  std::optional<Domain> analysis_region;
+  std::optional<Box> analysis_region;
 
   /// Bond-law coefficients of material pair (a, b).
   PairCoefficients pair_coefficients(int a, int b) const;

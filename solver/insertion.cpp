@@ -1,0 +1,421 @@
+#include "solver/insertion.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <functional>
+#include <numbers>
+#include <sstream>
+
+namespace bondem {
+namespace {
+
+/// Cut-offs that reject this many draws in a row hold too little of the distribution to be meant.
+constexpr int kMaxRedraws = 10000;
+
+double sphere_volume(double r) {
+  return 4.0 / 3.0 * std::numbers::pi * r * r * r;
+}
+
+std::string box_text(const Box& b) {
+  std::ostringstream s;
+  s << "[" << b.min.x() << ", " << b.max.x() << "] x [" << b.min.y() << ", " << b.max.y() << "] x ["
+    << b.min.z() << ", " << b.max.z() << "]";
+  return s.str();
+}
+
+void validate_box(const Box& b, const char* who) {
+  for (int a = 0; a < 3; ++a) {
+    if (!std::isfinite(b.min[a]) || !std::isfinite(b.max[a]) || !(b.min[a] < b.max[a])) {
+      throw std::invalid_argument(std::string(who) + ": region " + box_text(b) +
+                                  " must have min < max on every axis");
+    }
+  }
+}
+
+double smallest_extent(const Box& b) {
+  return (b.max - b.min).minCoeff();
+}
+
+/// Largest radius the distribution can produce, or 0 when it is unbounded.
+double upper_bound(const RadiusDistribution& d) {
+  switch (d.kind) {
+    case RadiusDistribution::Kind::kConstant:
+      return d.value;
+    case RadiusDistribution::Kind::kUniform:
+      return d.max;
+    case RadiusDistribution::Kind::kNormal:
+    case RadiusDistribution::Kind::kLogNormal:
+      return d.max;
+  }
+  return 0.0;
+}
+
+double raw_draw(const RadiusDistribution& d, Rng& rng) {
+  switch (d.kind) {
+    case RadiusDistribution::Kind::kConstant:
+      return d.value;
+    case RadiusDistribution::Kind::kUniform:
+      return d.min + uniform01(rng) * (d.max - d.min);
+    case RadiusDistribution::Kind::kNormal:
+      return d.mean + d.std_dev * standard_normal(rng);
+    case RadiusDistribution::Kind::kLogNormal:
+      return d.median * std::exp(d.sigma * standard_normal(rng));
+  }
+  return 0.0;
+}
+
+bool inside_cutoffs(const RadiusDistribution& d, double r) {
+  if (d.kind == RadiusDistribution::Kind::kConstant ||
+      d.kind == RadiusDistribution::Kind::kUniform) {
+    return true;  // the draw itself stays inside; rounding at max is harmless
+  }
+  return r > 0.0 && r >= d.min && (d.max == 0.0 || r <= d.max);
+}
+
+/// Sphere as the overlap test sees it.
+struct Sphere {
+  double x, y, z, r;
+};
+
+/// Uniform cell grid over the region with linked lists of entries per cell, filled while spheres
+/// are placed. Entries hold a copy of their sphere: with random positions every entry visited is a
+/// cache miss, and one miss per entry instead of two (entry, then sphere) halves the fill time.
+class CellGrid {
+ public:
+  CellGrid(const Box& region, std::array<std::size_t, 3> cells) : lo_(region.min), n_(cells) {
+    for (int a = 0; a < 3; ++a) {
+      size_[a] = (region.max[a] - region.min[a]) / static_cast<double>(n_[a]);
+    }
+    head_.assign(n_[0] * n_[1] * n_[2], kNone);
+  }
+
+  /// Cell coordinate of @p v along axis @p a, clamped to the grid: clamping keeps neighbors
+  /// within one cell, so spheres centered just outside the region are still found.
+  std::size_t coordinate(int a, double v) const {
+    const double c = std::floor((v - lo_[a]) / size_[a]);
+    if (!(c > 0.0)) return 0;  // also catches NaN
+    const double last = static_cast<double>(n_[a] - 1);
+    return static_cast<std::size_t>(std::min(c, last));
+  }
+
+  /// Smallest cell edge: spheres closer than this are in the same or adjacent cells.
+  double min_cell_size() const { return std::min({size_[0], size_[1], size_[2]}); }
+
+  void add(std::size_t cx, std::size_t cy, std::size_t cz, const Sphere& sphere) {
+    const std::size_t cell = index(cx, cy, cz);
+    entries_.push_back({sphere, head_[cell]});
+    head_[cell] = static_cast<std::int64_t>(entries_.size() - 1);
+  }
+
+  /// Call @p visit(sphere) for every entry of cell (cx, cy, cz); stops when it returns true.
+  template <class Visit>
+  bool any_in_cell(std::size_t cx, std::size_t cy, std::size_t cz, Visit&& visit) const {
+    for (std::int64_t e = head_[index(cx, cy, cz)]; e != kNone;
+         e = entries_[static_cast<std::size_t>(e)].next) {
+      if (visit(entries_[static_cast<std::size_t>(e)].sphere)) return true;
+    }
+    return false;
+  }
+
+  void reserve(std::size_t entries) { entries_.reserve(entries); }
+
+ private:
+  static constexpr std::int64_t kNone = -1;
+  struct Entry {
+    Sphere sphere;
+    std::int64_t next;
+  };
+  std::size_t index(std::size_t cx, std::size_t cy, std::size_t cz) const {
+    return (cz * n_[1] + cy) * n_[0] + cx;
+  }
+
+  Eigen::Vector3d lo_;
+  std::array<std::size_t, 3> n_;
+  std::array<double, 3> size_{};
+  std::vector<std::int64_t> head_;
+  std::vector<Entry> entries_;
+};
+
+/// Cells per axis with edges >= @p min_edge and at most about @p max_cells cells in total, so a
+/// few tiny particles in a huge box do not allocate a huge grid.
+std::array<std::size_t, 3> grid_cells(const Box& region, double min_edge, double max_cells) {
+  const Eigen::Vector3d extent = region.max - region.min;
+  double edge = std::max(min_edge, std::cbrt(extent.prod() / max_cells));
+  std::array<std::size_t, 3> n{};
+  for (;;) {
+    double total = 1.0;
+    for (int a = 0; a < 3; ++a) {
+      const double k = std::max(1.0, std::floor(extent[a] / edge));
+      total *= k;
+      n[static_cast<std::size_t>(a)] = static_cast<std::size_t>(k);
+    }
+    if (total <= max_cells) return n;
+    edge *= 1.5;  // only thin, elongated regions get here
+  }
+}
+
+std::string fraction_text(double f) {
+  std::ostringstream s;
+  s.precision(4);
+  s << f;
+  return s.str();
+}
+
+[[noreturn]] void refuse_too_dense(const std::string& what, double fraction) {
+  throw InsertionError("random fill: " + what + " " + fraction_text(fraction) + " is above " +
+                       fraction_text(kMaxRandomFillSolidFraction) +
+                       ", which random sequential addition cannot reach (it jams near 0.30-0.38"
+                       " solid fraction); insert a looser packing, then pour and settle it under"
+                       " gravity");
+}
+
+}  // namespace
+
+double uniform01(Rng& rng) {
+  return static_cast<double>(rng() >> 11) * 0x1.0p-53;
+}
+
+double standard_normal(Rng& rng) {
+  // 1 - u lies in (0, 1], so the logarithm is finite.
+  const double u1 = 1.0 - uniform01(rng);
+  const double u2 = uniform01(rng);
+  return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * std::numbers::pi * u2);
+}
+
+void validate(const RadiusDistribution& d) {
+  const auto fail = [](const std::string& message) {
+    throw std::invalid_argument("radius distribution: " + message);
+  };
+  const auto finite = [](double v) { return std::isfinite(v); };
+  if (!finite(d.value) || !finite(d.min) || !finite(d.max) || !finite(d.mean) ||
+      !finite(d.std_dev) || !finite(d.median) || !finite(d.sigma)) {
+    fail("parameters must be finite");
+  }
+  switch (d.kind) {
+    case RadiusDistribution::Kind::kConstant:
+      if (!(d.value > 0.0)) fail("constant radius must be > 0");
+      return;
+    case RadiusDistribution::Kind::kUniform:
+      if (!(d.min > 0.0)) fail("uniform min must be > 0");
+      if (!(d.min < d.max)) fail("uniform needs min < max");
+      return;
+    case RadiusDistribution::Kind::kNormal:
+      if (!(d.mean > 0.0)) fail("normal mean must be > 0");
+      if (!(d.std_dev > 0.0)) fail("normal std_dev must be > 0 (use kConstant for none)");
+      break;
+    case RadiusDistribution::Kind::kLogNormal:
+      if (!(d.median > 0.0)) fail("log-normal median must be > 0");
+      if (!(d.sigma > 0.0)) fail("log-normal sigma must be > 0 (use kConstant for none)");
+      break;
+  }
+  if (d.min < 0.0) fail("cut-off min must be >= 0 (0 = none)");
+  if (d.max < 0.0) fail("cut-off max must be >= 0 (0 = none)");
+  if (d.max > 0.0 && !(d.min < d.max)) fail("cut-offs need min < max");
+}
+
+double draw_radius(const RadiusDistribution& distribution, Rng& rng) {
+  validate(distribution);
+  for (int k = 0; k < kMaxRedraws; ++k) {
+    const double r = raw_draw(distribution, rng);
+    if (inside_cutoffs(distribution, r)) return r;
+  }
+  throw std::invalid_argument("radius distribution: cut-offs [" + std::to_string(distribution.min) +
+                              ", " + std::to_string(distribution.max) + "] rejected " +
+                              std::to_string(kMaxRedraws) +
+                              " draws in a row; they hold almost none of the distribution");
+}
+
+std::vector<ParticleSpec> insert_lattice(const Box& region, double spacing, double radius,
+                                         int material) {
+  validate_box(region, "lattice");
+  if (!(spacing > 0.0) || !std::isfinite(spacing)) {
+    throw std::invalid_argument("lattice: spacing must be > 0");
+  }
+  if (!(radius > 0.0) || !std::isfinite(radius)) {
+    throw std::invalid_argument("lattice: radius must be > 0");
+  }
+  if (material < 0) throw std::invalid_argument("lattice: material index must be >= 0");
+  if (2.0 * radius > smallest_extent(region)) {
+    throw std::invalid_argument("lattice: a sphere of radius " + std::to_string(radius) +
+                                " does not fit the region " + box_text(region));
+  }
+  // Count rather than step while inside, so rounding cannot add or drop a layer; the small
+  // tolerance keeps the layer that touches the far wall exactly (e.g. 5 spheres of r = 0.1 in 1).
+  std::array<std::size_t, 3> n{};
+  for (int a = 0; a < 3; ++a) {
+    const double room = (region.max[a] - region.min[a] - 2.0 * radius) / spacing;
+    n[static_cast<std::size_t>(a)] = static_cast<std::size_t>(std::floor(room + 1e-9)) + 1;
+  }
+  std::vector<ParticleSpec> out;
+  out.reserve(n[0] * n[1] * n[2]);
+  for (std::size_t k = 0; k < n[2]; ++k) {
+    for (std::size_t j = 0; j < n[1]; ++j) {
+      for (std::size_t i = 0; i < n[0]; ++i) {
+        ParticleSpec p;
+        p.material = material;
+        p.radius = radius;
+        p.position = region.min + Eigen::Vector3d::Constant(radius) +
+                     spacing * Eigen::Vector3d(static_cast<double>(i), static_cast<double>(j),
+                                               static_cast<double>(k));
+        out.push_back(p);
+      }
+    }
+  }
+  return out;
+}
+
+std::vector<ParticleSpec> insert_random_fill(const FillRequest& request,
+                                             const std::vector<ParticleSpec>& existing) {
+  const Box& region = request.region;
+  validate_box(region, "random fill");
+  validate(request.radius);
+  if (request.material < 0) throw std::invalid_argument("random fill: material must be >= 0");
+  if (!request.velocity.allFinite()) throw std::invalid_argument("random fill: velocity");
+  if (!std::isfinite(request.solid_fraction) || request.solid_fraction < 0.0 ||
+      request.solid_fraction >= 1.0) {
+    throw std::invalid_argument("random fill: solid_fraction must be in [0, 1), 0 = unused");
+  }
+  if ((request.count > 0) == (request.solid_fraction > 0.0)) {
+    throw std::invalid_argument(
+        "random fill: give exactly one target, count > 0 or solid_fraction > 0");
+  }
+  if (request.max_attempts_per_particle == 0) {
+    throw std::invalid_argument("random fill: max_attempts_per_particle must be >= 1");
+  }
+  const double half_room = 0.5 * smallest_extent(region);
+  const double bound = upper_bound(request.radius);
+  if (bound > half_room) {
+    throw std::invalid_argument("random fill: radius up to " + std::to_string(bound) +
+                                " does not fit the region " + box_text(region));
+  }
+  if (request.solid_fraction > kMaxRandomFillSolidFraction) {
+    refuse_too_dense("target solid fraction", request.solid_fraction);
+  }
+
+  const double region_volume = (region.max - region.min).prod();
+  Rng rng(request.seed);
+
+  // Radii first: the target is reached by construction, and sorting them is possible.
+  std::vector<double> radii;
+  double drawn_volume = 0.0;
+  const double target_volume = request.solid_fraction * region_volume;
+  while (request.count > 0 ? radii.size() < request.count : drawn_volume < target_volume) {
+    const double r = draw_radius(request.radius, rng);
+    if (r > half_room) {
+      throw std::invalid_argument("random fill: drawn radius " + std::to_string(r) +
+                                  " does not fit the region " + box_text(region) +
+                                  "; set a max cut-off on the radius distribution");
+    }
+    radii.push_back(r);
+    drawn_volume += sphere_volume(r);
+  }
+  if (drawn_volume / region_volume > kMaxRandomFillSolidFraction) {
+    refuse_too_dense("the " + std::to_string(radii.size()) + " drawn particles have solid fraction",
+                     drawn_volume / region_volume);
+  }
+  // Ties are equal values, so the sorted sequence does not depend on the sort algorithm.
+  std::sort(radii.begin(), radii.end(), std::greater<>());
+  const double r_max = radii.front();
+
+  // Existing spheres that could touch a new one: center closer to the region than r + r_max.
+  std::vector<Sphere> spheres;  // existing ones only; placed ones live in the grid
+  for (const ParticleSpec& p : existing) {
+    const Eigen::Vector3d gap =
+        (region.min - p.position).cwiseMax(p.position - region.max).cwiseMax(0.0);
+    const double reach = p.radius + r_max;
+    if (gap.squaredNorm() < reach * reach) {
+      spheres.push_back({p.position.x(), p.position.y(), p.position.z(), p.radius});
+    }
+  }
+  const std::size_t n_existing = spheres.size();
+
+  // `near` holds spheres by their center: with cell edges >= r + r_j, any overlapping sphere is
+  // in the 27 cells around the new center. Existing spheres too big for that go to `big`, in
+  // every cell their center +- (r_j + r_max) touches, so only the new center's cell is looked up.
+  const double max_cells = 2.0 * static_cast<double>(n_existing + radii.size()) + 64.0;
+  const auto cells = grid_cells(region, 2.0 * r_max, max_cells);
+  CellGrid near(region, cells);
+  CellGrid big(region, cells);
+  const double near_limit = near.min_cell_size() - r_max;  // r_j up to this fit the 27 cells
+  near.reserve(n_existing + radii.size());
+  for (const Sphere& e : spheres) {
+    if (e.r <= near_limit) {
+      near.add(near.coordinate(0, e.x), near.coordinate(1, e.y), near.coordinate(2, e.z), e);
+      continue;
+    }
+    const double reach = e.r + r_max;
+    const double c[3] = {e.x, e.y, e.z};
+    std::array<std::size_t, 3> lo{}, hi{};
+    for (int a = 0; a < 3; ++a) {
+      lo[static_cast<std::size_t>(a)] = big.coordinate(a, c[a] - reach);
+      hi[static_cast<std::size_t>(a)] = big.coordinate(a, c[a] + reach);
+    }
+    for (std::size_t z = lo[2]; z <= hi[2]; ++z) {
+      for (std::size_t y = lo[1]; y <= hi[1]; ++y) {
+        for (std::size_t x = lo[0]; x <= hi[0]; ++x) big.add(x, y, z, e);
+      }
+    }
+  }
+
+  std::vector<ParticleSpec> out;
+  out.reserve(radii.size());
+  double placed_volume = 0.0;
+  for (const double r : radii) {
+    bool placed = false;
+    for (std::size_t attempt = 0; attempt < request.max_attempts_per_particle; ++attempt) {
+      Sphere s{0.0, 0.0, 0.0, r};
+      double* const coordinates[3] = {&s.x, &s.y, &s.z};
+      for (int a = 0; a < 3; ++a) {
+        const double lo = region.min[a] + r;
+        const double hi = region.max[a] - r;
+        *coordinates[a] = std::clamp(lo + uniform01(rng) * (hi - lo), lo, hi);
+      }
+      const auto overlaps = [&s](const Sphere& o) {
+        const double dx = o.x - s.x, dy = o.y - s.y, dz = o.z - s.z;
+        const double reach = o.r + s.r;
+        return dx * dx + dy * dy + dz * dz < reach * reach;
+      };
+      const std::size_t cx = near.coordinate(0, s.x);
+      const std::size_t cy = near.coordinate(1, s.y);
+      const std::size_t cz = near.coordinate(2, s.z);
+      bool blocked = big.any_in_cell(cx, cy, cz, overlaps);
+      for (std::size_t z = cz > 0 ? cz - 1 : 0; !blocked && z <= std::min(cz + 1, cells[2] - 1);
+           ++z) {
+        for (std::size_t y = cy > 0 ? cy - 1 : 0; !blocked && y <= std::min(cy + 1, cells[1] - 1);
+             ++y) {
+          for (std::size_t x = cx > 0 ? cx - 1 : 0; !blocked && x <= std::min(cx + 1, cells[0] - 1);
+               ++x) {
+            blocked = near.any_in_cell(x, y, z, overlaps);
+          }
+        }
+      }
+      if (blocked) continue;
+      near.add(cx, cy, cz, s);
+      ParticleSpec p;
+      p.material = request.material;
+      p.radius = r;
+      p.position = Eigen::Vector3d(s.x, s.y, s.z);
+      p.velocity = request.velocity;
+      out.push_back(p);
+      placed_volume += sphere_volume(r);
+      placed = true;
+      break;
+    }
+    if (!placed) {
+      std::ostringstream m;
+      m << "random fill: placed " << out.size() << " of " << radii.size() << " particles";
+      if (request.count == 0) m << " (target solid fraction " << request.solid_fraction << ")";
+      m << ", reached solid fraction " << fraction_text(placed_volume / region_volume) << " of "
+        << fraction_text(drawn_volume / region_volume) << "; a particle of radius " << r
+        << " found no free position in " << request.max_attempts_per_particle
+        << " attempts. Random sequential addition jams near 0.30-0.38 solid fraction (lower "
+           "with walls or existing particles): lower the target, raise "
+           "max_attempts_per_particle, or pour and settle under gravity";
+      throw InsertionError(m.str());
+    }
+  }
+  return out;
+}
+
+}  // namespace bondem

@@ -1,0 +1,114 @@
+#pragma once
+/// @file insertion.hpp
+/// Particle insertion for packing cases: a regular lattice and a seeded random fill of a box.
+///
+/// Pure functions: they return particle specs (solver/case.hpp) and never touch a scene, so a case
+/// reader or a test can call them directly. Everything random is drawn from one
+/// std::mt19937_64 stream with hand-written mappings (uniform, Box-Muller), because the standard
+/// library distributions are implementation-defined and would give different packings on
+/// different standard libraries.
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <cstdint>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "geometry/box.hpp"
+#include "solver/case.hpp"
+
+namespace bondem {
+
+/// The random engine of insertion; its output sequence is fixed by the C++ standard.
+using Rng = std::mt19937_64;
+
+/// A target that random sequential addition cannot reach (too dense, or too few attempts).
+class InsertionError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Radius distribution of inserted particles; radii outside the cut-offs are redrawn.
+///
+/// | kind        | parameters           | cut-offs                                             |
+/// |-------------|----------------------|------------------------------------------------------|
+/// | kConstant   | `value`              | none                                                 |
+/// | kUniform    | `min`, `max` (bounds)| the bounds themselves: r in [min, max)               |
+/// | kNormal     | `mean`, `std_dev`    | `min` (0 = none), `max` (0 = none); r <= 0 is always
+/// redrawn | | kLogNormal  | `median`, `sigma`    | `min` (0 = none), `max` (0 = none) |
+///
+/// For kLogNormal, ln r is normal with mean ln(median) and standard deviation `sigma`
+/// (dimensionless): parameters of ln r, not of r, because that is how sieve data are reported.
+/// Redrawing truncates the distribution, so the mean of a cut distribution differs from `mean`.
+struct RadiusDistribution {
+  enum class Kind { kConstant, kUniform, kNormal, kLogNormal };
+  Kind kind = Kind::kConstant;
+  double value = 0.0;    ///< kConstant: the radius [m]
+  double min = 0.0;      ///< kUniform: lower bound; kNormal/kLogNormal: lower cut-off, 0 = none [m]
+  double max = 0.0;      ///< kUniform: upper bound; kNormal/kLogNormal: upper cut-off, 0 = none [m]
+  double mean = 0.0;     ///< kNormal: mean radius before cut-offs [m]
+  double std_dev = 0.0;  ///< kNormal: standard deviation of the radius before cut-offs [m]
+  double median = 0.0;   ///< kLogNormal: median radius before cut-offs, exp(mu) [m]
+  double sigma = 0.0;    ///< kLogNormal: standard deviation of ln r [-]
+};
+
+/// Uniform double in [0, 1) from the top 53 bits of one engine output (exact on every platform).
+double uniform01(Rng& rng);
+
+/// Standard normal deviate by Box-Muller (cosine branch only; uses two engine outputs).
+double standard_normal(Rng& rng);
+
+/// Throw std::invalid_argument unless @p distribution has consistent, positive parameters.
+void validate(const RadiusDistribution& distribution);
+
+/// One radius of @p distribution, redrawn until inside the cut-offs. Throws std::invalid_argument
+/// for an invalid distribution or cut-offs that reject 10000 draws in a row.
+double draw_radius(const RadiusDistribution& distribution, Rng& rng);
+
+/// Simple-cubic lattice of particles of one radius filling the region: centers at
+/// min + radius + k*spacing while the sphere fits. Returns specs with the given material index and
+/// zero velocity, x varying fastest, then y, then z.
+///
+/// A spacing below 2*radius is allowed on purpose: it starts neighbors overlapped (e.g. at the
+/// bond's equilibrium overlap). Throws std::invalid_argument for a degenerate box, non-positive
+/// radius or spacing, a negative material, or a sphere that does not fit the region.
+std::vector<ParticleSpec> insert_lattice(const Box& region, double spacing, double radius,
+                                         int material);
+
+/// Random sequential addition cannot go beyond about 0.30-0.38 solid fraction (0.38 monodisperse
+/// in bulk, lower next to walls): targets above this are refused rather than attempted.
+inline constexpr double kMaxRandomFillSolidFraction = 0.40;
+
+/// What insert_random_fill() should produce. Exactly one of `count` and `solid_fraction` is > 0.
+struct FillRequest {
+  Box region;        ///< every inserted sphere lies fully inside
+  int material = 0;  ///< material index of every inserted particle
+  RadiusDistribution radius;
+  std::size_t count = 0;        ///< target: this many particles
+  double solid_fraction = 0.0;  ///< target: inserted sphere volume / region volume, in (0, 1)
+  std::uint64_t seed = 1;       ///< same seed, same particles, bit for bit
+  std::size_t max_attempts_per_particle = 1000;        ///< random positions tried before giving up
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();  ///< initial velocity of every particle
+};
+
+/// Seeded random sequential addition into a box.
+///
+/// Draws all radii first (for `solid_fraction`, until the drawn volume reaches
+/// solid_fraction * region volume, so the result exceeds the target by less than one particle),
+/// sorts them largest first (big spheres are hard to fit into a crowded box, so RSA then gets
+/// denser), then places each at uniformly random positions fully inside the region until it
+/// overlaps neither a particle placed before nor one of @p existing (touching is allowed).
+/// Overlap checks use a uniform cell grid, so the cost is O(N * attempts), not O(N^2).
+///
+/// `solid_fraction` counts only this request's particles; @p existing particles inside the region
+/// make it harder to reach. The output is in placement order (radius descending).
+///
+/// Throws std::invalid_argument for invalid requests and InsertionError, with target, reached
+/// count and solid fraction and attempts, when the target is above kMaxRandomFillSolidFraction
+/// or a particle finds no free position: for denser packings, pour and settle under gravity.
+std::vector<ParticleSpec> insert_random_fill(const FillRequest& request,
+                                             const std::vector<ParticleSpec>& existing = {});
+
+}  // namespace bondem
