@@ -38,7 +38,7 @@ double smallest_extent(const Box& b) {
 }
 
 /// Largest radius the distribution can produce, or 0 when it is unbounded.
-double upper_bound(const RadiusDistribution& d) {
+double radius_upper_bound(const RadiusDistribution& d) {
   switch (d.kind) {
     case RadiusDistribution::Kind::kConstant:
       return d.value;
@@ -284,7 +284,7 @@ std::vector<ParticleSpec> insert_random_fill(const FillRequest& request,
     throw std::invalid_argument("random fill: max_attempts_per_particle must be >= 1");
   }
   const double half_room = 0.5 * smallest_extent(region);
-  const double bound = upper_bound(request.radius);
+  const double bound = radius_upper_bound(request.radius);
   if (bound > half_room) {
     throw std::invalid_argument("random fill: radius up to " + std::to_string(bound) +
                                 " does not fit the region " + box_text(region));
@@ -293,7 +293,7 @@ std::vector<ParticleSpec> insert_random_fill(const FillRequest& request,
     refuse_too_dense("target solid fraction", request.solid_fraction);
   }
 
-  const double region_volume = (region.max - region.min).prod();
+  const double region_volume = region.volume();
   Rng rng(request.seed);
 
   // Radii first: the target is reached by construction, and sorting them is possible.
