@@ -32,16 +32,17 @@ class InsertionError : public std::runtime_error {
 
 /// Radius distribution of inserted particles; radii outside the cut-offs are redrawn.
 ///
-/// | kind        | parameters           | cut-offs                                             |
-/// |-------------|----------------------|------------------------------------------------------|
-/// | kConstant   | `value`              | none                                                 |
-/// | kUniform    | `min`, `max` (bounds)| the bounds themselves: r in [min, max)               |
-/// | kNormal     | `mean`, `std_dev`    | `min` (0 = none), `max` (0 = none); r <= 0 is always
-/// redrawn | | kLogNormal  | `median`, `sigma`    | `min` (0 = none), `max` (0 = none) |
+/// - kConstant: `value`; no cut-offs.
+/// - kUniform: r in [`min`, `max`); the bounds are the cut-offs.
+/// - kNormal: `mean`, `std_dev` of r; cut-offs `min` and `max` (0 = none); r <= 0 is always
+///   redrawn, since a radius must be positive.
+/// - kLogNormal: ln r is normal with mean ln(`median`) and standard deviation `sigma`
+///   (dimensionless), i.e. parameters of ln r, not of r, as sieve data are reported; cut-offs
+///   `min` and `max` (0 = none).
 ///
-/// For kLogNormal, ln r is normal with mean ln(median) and standard deviation `sigma`
-/// (dimensionless): parameters of ln r, not of r, because that is how sieve data are reported.
 /// Redrawing truncates the distribution, so the mean of a cut distribution differs from `mean`.
+/// Normal and log-normal draws call std::log, std::cos and std::exp: bit-identical wherever the
+/// same math library is used (e.g. glibc), but another libm may differ in the last bit.
 struct RadiusDistribution {
   enum class Kind { kConstant, kUniform, kNormal, kLogNormal };
   Kind kind = Kind::kConstant;

@@ -89,7 +89,8 @@ TEST(Collision, NeverCriterionAlwaysRebounds) {
 
 TEST(Collision, UnequalPairSettlesAtItsEquilibrium) {
   // Different radii and densities: zero total momentum placement and eq. 13 with the pair's r*.
-  const Case c = paper_case({"particles.1.radius=0.002", "particles.1.position.0=0.003", "bond.damping_ratio=1"});
+  const Case c = paper_case(
+      {"particles.1.radius=0.002", "particles.1.position.0=0.003", "bond.damping_ratio=1"});
   const double v = 1.5 * critical_velocity_of(c);
   const CollisionResult r = collide(c, v);
   EXPECT_TRUE(r.bonded);

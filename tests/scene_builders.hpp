@@ -1,0 +1,48 @@
+#pragma once
+// Small case builders shared by the multi-particle tests.
+#include <cmath>
+
+#include "solver/case.hpp"
+#include "solver/insertion.hpp"
+
+namespace bondem::testing {
+
+/// One soft material (E = 5 MPa, nu = 0.3, rho = 2500), no bonding, given contact damping.
+inline Case soft_case(double xi_con) {
+  Case c;
+  c.source = "test";
+  c.materials.push_back({"powder", 2500.0, 5.0e6, 0.3});
+  c.contact_damping = xi_con;
+  c.bond.criterion = BondCriterion::kNever;
+  c.bond.equilibrium_overlap = 1e-6;
+  c.time_step = 1e-6;
+  c.end_time = 1.0;
+  return c;
+}
+
+/// A random polydisperse gas (radii uniform in [r_min, r_max]) in box [0, L]^3 with random
+/// velocities of magnitude up to @p speed, seeded.
+inline void add_random_gas(Case& c, std::size_t count, double r_min, double r_max, double length,
+                           double speed, std::uint64_t seed) {
+  FillRequest request;
+  request.region = Box{Eigen::Vector3d::Zero(), Eigen::Vector3d::Constant(length)};
+  request.radius.kind = RadiusDistribution::Kind::kUniform;
+  request.radius.min = r_min;
+  request.radius.max = r_max;
+  request.count = count;
+  request.seed = seed;
+  std::vector<ParticleSpec> gas = insert_random_fill(request, c.particles);
+  Rng rng(seed + 1);
+  for (ParticleSpec& p : gas) {
+    p.velocity = speed *
+                 Eigen::Vector3d(2.0 * uniform01(rng) - 1.0, 2.0 * uniform01(rng) - 1.0,
+                                 2.0 * uniform01(rng) - 1.0) /
+                 std::sqrt(3.0);
+    c.particles.push_back(p);
+  }
+  Domain d;
+  d.max = Eigen::Vector3d::Constant(length);
+  c.domain = d;
+}
+
+}  // namespace bondem::testing

@@ -1,0 +1,117 @@
+// The cell-list Verlet list against the all-pairs oracle, on polydisperse (5:1) configurations,
+// with and without periodic axes, after many steps of motion and rebuilds.
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <set>
+
+#include "scene_builders.hpp"
+#include "solver/neighbors.hpp"
+#include "solver/scene.hpp"
+#include "solver/stepper.hpp"
+
+namespace bondem {
+namespace {
+
+using PairSet = std::set<std::pair<std::int64_t, std::int64_t>>;
+
+/// Pairs of the list whose particles currently overlap (by id, smaller id first).
+PairSet listed_contacts(const Particles& p, const NeighborList& list, double skin_of_interest,
+                        const Domain& domain) {
+  PairSet out;
+  const Eigen::Vector3d length = domain.length();
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    for (std::uint32_t k = list.row_begin[i]; k < list.row_begin[i + 1]; ++k) {
+      const std::size_t j = list.second[k];
+      const Eigen::Vector3d& s = list.shifts[list.image[k]];
+      Eigen::Vector3d d(p.x[j] - p.x[i] + s.x(), p.y[j] - p.y[i] + s.y(), p.z[j] - p.z[i] + s.z());
+      // The stored image must be the minimum image.
+      for (int a = 0; a < 3; ++a) {
+        if (domain.periodic[a]) {
+          EXPECT_LE(std::abs(d[a]), 0.5 * length[a]);
+        }
+      }
+      if (d.norm() < p.radius[i] + p.radius[j] + skin_of_interest) {
+        out.insert(std::minmax(p.id[i], p.id[j]));
+      }
+    }
+  }
+  return out;
+}
+
+PairSet oracle(const Particles& p, const Domain& domain, double skin) {
+  PairSet out;
+  for (const auto& [i, j] : find_pairs_all(p, domain, skin))
+    out.insert(std::minmax(p.id[i], p.id[j]));
+  return out;
+}
+
+class NeighborOracle : public ::testing::TestWithParam<std::array<bool, 3>> {};
+
+TEST_P(NeighborOracle, MatchesAllPairsAfterMotion) {
+  Case c = testing::soft_case(0.0);
+  // Dense enough for many contacts, 5:1 size ratio, fast enough to cross cells and boundaries.
+  testing::add_random_gas(c, 2500, 0.1e-3, 0.5e-3, 0.012, 2.0, 17);
+  c.domain->periodic = GetParam();
+  if (!c.domain->any_periodic()) {
+    bool open[6] = {false, false, false, false, false, false};
+    c.walls = box_walls(c.domain->min, c.domain->max, 0, open);
+  }
+  c.skin = 0.05e-3;
+  c.time_step = 2e-7;
+  c.reorder_interval = 3;  // reorder often to exercise it
+  Scene scene = build_scene(c);
+  Stepper stepper(scene);
+  const Particles& p = scene.particles;
+  // Right after a build the list is exactly the oracle's pairs within r_i + r_j + skin.
+  EXPECT_EQ(listed_contacts(p, stepper.neighbors(), c.skin, scene.domain),
+            oracle(p, scene.domain, c.skin));
+  std::int64_t builds = stepper.neighbors().builds;
+  for (int s = 1; s <= 600; ++s) {
+    stepper.step();
+    if (s % 20 == 0) {
+      // Between builds every actual contact must be in the list.
+      const PairSet truth = oracle(p, scene.domain, 0.0);
+      const PairSet listed = listed_contacts(p, stepper.neighbors(), 0.0, scene.domain);
+      ASSERT_EQ(listed, truth) << "step " << s;
+      ASSERT_FALSE(truth.empty());
+    }
+  }
+  EXPECT_GT(stepper.neighbors().builds, builds + 5) << "the test must cross several rebuilds";
+}
+
+INSTANTIATE_TEST_SUITE_P(Boundaries, NeighborOracle,
+                         ::testing::Values(std::array<bool, 3>{false, false, false},
+                                           std::array<bool, 3>{true, true, true},
+                                           std::array<bool, 3>{true, false, true}));
+
+TEST(NeighborList, ReorderingKeepsIdsAndState) {
+  Case c = testing::soft_case(0.0);
+  testing::add_random_gas(c, 3000, 0.1e-3, 0.5e-3, 0.012, 1.0, 5);
+  Scene scene = build_scene(c);
+  const Particles before = scene.particles;
+  NeighborList list;
+  list.build(scene.particles, scene.domain, 1e-4, true);
+  const Particles& after = scene.particles;
+  ASSERT_EQ(after.size(), before.size());
+  std::vector<int> seen(before.size(), 0);
+  for (std::size_t k = 0; k < after.size(); ++k) {
+    const auto id = static_cast<std::size_t>(after.id[k]);
+    ++seen[id];
+    EXPECT_EQ(after.x[k], before.x[id]);
+    EXPECT_EQ(after.vz[k], before.vz[id]);
+    EXPECT_EQ(after.radius[k], before.radius[id]);
+  }
+  for (int count : seen) EXPECT_EQ(count, 1);
+}
+
+TEST(NeighborList, RefusesPeriodicAxisShorterThanThreeCells) {
+  Case c = testing::soft_case(0.0);
+  testing::add_random_gas(c, 3, 0.4e-3, 0.5e-3, 0.002, 1.0, 3);
+  c.domain->periodic = {true, false, false};
+  Scene scene = build_scene(c);
+  EXPECT_THROW(Stepper{scene}, std::runtime_error);
+}
+
+}  // namespace
+}  // namespace bondem
