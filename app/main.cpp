@@ -42,13 +42,6 @@ std::vector<double> reference_radii(const Case& c) {
   return sum;
 }
 
-/// An upper bound of the case's relative impact speeds: twice the fastest particle.
-double largest_relative_speed(const Case& c) {
-  double fastest = 0.0;
-  for (const auto& p : c.particles) fastest = std::max(fastest, p.velocity.norm());
-  return 2.0 * fastest;
-}
-
 void print_quantity(const std::string& name, double value, const std::string& unit) {
   std::cout << name << " = " << std::setprecision(6) << value;
   if (!unit.empty()) std::cout << " " << unit;
@@ -58,12 +51,9 @@ void print_quantity(const std::string& name, double value, const std::string& un
 int run_info(const std::string& case_path, const std::vector<std::string>& overrides,
              std::optional<double> velocity) {
   const Case c = bondem::load_case(case_path, overrides);
-  double reference = velocity.value_or(largest_relative_speed(c));
-  const char* reference_source = velocity ? "--velocity" : "twice the fastest case particle";
-  if (!(reference > 0.0)) {
-    reference = 1.0;
-    reference_source = "default, no particle moves";
-  }
+  const double reference = velocity.value_or(bondem::reference_impact_speed(c));
+  const char* reference_source =
+      velocity ? "--velocity" : "fastest impact of the case (initial speeds, fall under gravity)";
   const std::vector<double> radii = reference_radii(c);
   const std::size_t n = c.materials.size();
   std::cout << "# bond calculator for " << case_path << "; radii are the mean of each material's"
@@ -104,6 +94,7 @@ int run_info(const std::string& case_path, const std::vector<std::string>& overr
       }
     }
   }
+  print_quantity("case_time_step_limit", bondem::case_time_step_limit(c), "s");
   return 0;
 }
 

@@ -46,48 +46,8 @@ void write_final_state(const Particles& p, const std::string& path) {
 
 }  // namespace
 
-double recommended_time_step(const Case& c) {
-  std::vector<double> smallest(c.materials.size(), 0.0);
-  double fastest = 0.0;
-  for (const ParticleSpec& p : c.particles) {
-    double& r = smallest[static_cast<std::size_t>(p.material)];
-    r = r == 0.0 ? p.radius : std::min(r, p.radius);
-    fastest = std::max(fastest, p.velocity.norm());
-  }
-  double speed = 2.0 * fastest;
-  const double g = c.gravity.norm();
-  if (g > 0.0) {
-    Eigen::Vector3d lo = c.particles.front().position;
-    Eigen::Vector3d hi = lo;
-    for (const ParticleSpec& p : c.particles) {
-      lo = lo.cwiseMin(p.position);
-      hi = hi.cwiseMax(p.position);
-    }
-    if (c.domain) {
-      lo = c.domain->min;
-      hi = c.domain->max;
-    }
-    const double drop = std::abs((hi - lo).dot(c.gravity / g));
-    speed = std::max(speed, std::sqrt(2.0 * g * drop));
-  }
-  if (!(speed > 0.0)) speed = 1.0;  // nothing moves yet: a gentle 1 m/s contact as the yardstick
-  double step = std::numeric_limits<double>::infinity();
-  const int n = static_cast<int>(c.materials.size());
-  for (int a = 0; a < n; ++a) {
-    for (int b = a; b < n; ++b) {
-      if (smallest[static_cast<std::size_t>(a)] == 0.0 ||
-          smallest[static_cast<std::size_t>(b)] == 0.0)
-        continue;
-      const PairReport r = compute_pair_report(c, a, smallest[static_cast<std::size_t>(a)], b,
-                                               smallest[static_cast<std::size_t>(b)], speed);
-      step = std::min(step, r.recommended_time_step);
-    }
-  }
-  return step;
-}
-
 RunResult run_case(const Case& description, const RunOptions& options, std::ostream& log) {
-  const double recommended = recommended_time_step(description);
+  const double recommended = case_time_step_limit(description);
   if (description.time_step > recommended) {
     std::ostringstream message;
     message << description.source << ": 'time.step': " << description.time_step

@@ -32,11 +32,6 @@ struct RunResult {
   Box packing_region;
 };
 
-/// The time step a case should not exceed: the calculator's rule over every material pair at the
-/// smallest radius of each material, at the fastest impact the case can produce (twice the fastest
-/// initial particle, or a fall across the domain under gravity).
-double recommended_time_step(const Case& description);
-
 /// Run @p description to time.end, writing `history.csv` (time, kinetic energy, contacts, bonds,
 /// wall contacts, largest overlap, at output.history_interval) and `final_state.csv` (one row per
 /// particle sorted by id: id, x, y, z, vx, vy, vz, radius, 17 significant digits) into the output

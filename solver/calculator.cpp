@@ -100,4 +100,46 @@ std::vector<std::string> time_step_warnings(const PairReport& report, double tim
   return warnings;
 }
 
+double reference_impact_speed(const Case& c) {
+  double fastest = 0.0;
+  for (const ParticleSpec& p : c.particles) fastest = std::max(fastest, p.velocity.norm());
+  double speed = 2.0 * fastest;
+  const double g = c.gravity.norm();
+  if (g > 0.0 && !c.particles.empty()) {
+    Eigen::Vector3d lo = c.particles.front().position;
+    Eigen::Vector3d hi = lo;
+    for (const ParticleSpec& p : c.particles) {
+      lo = lo.cwiseMin(p.position);
+      hi = hi.cwiseMax(p.position);
+    }
+    if (c.domain) {
+      lo = c.domain->min;
+      hi = c.domain->max;
+    }
+    const double drop = std::abs((hi - lo).dot(c.gravity / g));
+    speed = std::max(speed, std::sqrt(2.0 * g * drop));
+  }
+  return speed > 0.0 ? speed : 1.0;  // nothing moves yet: a gentle 1 m/s contact as yardstick
+}
+
+double case_time_step_limit(const Case& c) {
+  std::vector<double> smallest(c.materials.size(), 0.0);
+  for (const ParticleSpec& p : c.particles) {
+    double& r = smallest[static_cast<std::size_t>(p.material)];
+    r = r == 0.0 ? p.radius : std::min(r, p.radius);
+  }
+  const double speed = reference_impact_speed(c);
+  double step = std::numeric_limits<double>::infinity();
+  const std::size_t n = c.materials.size();
+  for (std::size_t a = 0; a < n; ++a) {
+    for (std::size_t b = a; b < n; ++b) {
+      if (smallest[a] == 0.0 || smallest[b] == 0.0) continue;
+      const PairReport r = compute_pair_report(c, static_cast<int>(a), smallest[a],
+                                               static_cast<int>(b), smallest[b], speed);
+      step = std::min(step, r.recommended_time_step);
+    }
+  }
+  return step;
+}
+
 }  // namespace bondem

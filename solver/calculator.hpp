@@ -56,4 +56,12 @@ PairReport compute_pair_report(const Case& description, int material_a, double r
 /// Warnings about the case's time step against a pair report (empty when none).
 std::vector<std::string> time_step_warnings(const PairReport& report, double time_step);
 
+/// Fastest impact a case can produce: twice its fastest initial particle, or a fall across the
+/// domain (or the particles' extent) under gravity; 1 m/s when nothing moves [m/s].
+double reference_impact_speed(const Case& description);
+
+/// The time step a case must not exceed: recommended_time_step() over every material pair at the
+/// smallest radius of each material and at reference_impact_speed().
+double case_time_step_limit(const Case& description);
+
 }  // namespace bondem

@@ -38,3 +38,17 @@ file(GLOB leftovers ${WORK}/trace.csv* ${WORK}/sweep.csv*)
 if(leftovers)
   message(FATAL_ERROR "failed runs left files behind: ${leftovers}")
 endif()
+
+# bondem run refuses bad cases before starting and writes nothing.
+expect_bad_input("'time.step'" run ${CASES}/powder_bed_packing_ci.yaml --quiet
+                 --set time.step=1e-5 --output ${WORK}/run_dt)
+expect_bad_input("'insert.0': random fill" run ${CASES}/powder_bed_packing_ci.yaml --quiet
+                 --set insert.0.count=20000 --output ${WORK}/run_fill)
+expect_bad_input("'particles.1': overlaps particles.0" run ${CASES}/paper_5_1.yaml --quiet
+                 --set particles.1.position.0=0.0015 --output ${WORK}/run_overlap)
+expect_bad_input("--threads must be at least 1" run ${CASES}/powder_bed_packing_ci.yaml --quiet
+                 --threads 0 --output ${WORK}/run_threads)
+file(GLOB run_leftovers ${WORK}/run_*)
+if(run_leftovers)
+  message(FATAL_ERROR "refused runs left output behind: ${run_leftovers}")
+endif()

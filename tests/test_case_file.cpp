@@ -59,7 +59,8 @@ TEST(CaseFile, ValidCaseReadsEveryField) {
 }
 
 TEST(CaseFile, ShippedCasesLoad) {
-  for (const char* name : {"/paper_5_1.yaml", "/paper_5_2.yaml"}) {
+  for (const char* name : {"/paper_5_1.yaml", "/paper_5_2.yaml", "/powder_bed_packing.yaml",
+                           "/powder_bed_packing_ci.yaml"}) {
     EXPECT_NO_THROW(load_case(std::string(BONDEM_CASES_DIR) + name)) << name;
   }
 }
@@ -119,6 +120,44 @@ TEST(CaseFile, StructuralMistakes) {
             std::string::npos);
   EXPECT_NE(error_of("materials: [unclosed").find("case.yaml:1:"), std::string::npos);
   EXPECT_NE(error_of("").find("empty"), std::string::npos);
+}
+
+TEST(CaseFile, ParticlesMustFitDomainWallsAndEachOther) {
+  const std::string boxed =
+      kValid + R"(domain: {min: [-0.01, -0.01, -0.01], max: [0.01, 0.01, 0.01]}
+walls:
+  - {type: plane, point: [0, 0, -0.0005], normal: [0, 0, 1], material: powder, name: floor}
+)";
+  EXPECT_NE(error_of(boxed).find("overlaps wall 'floor'"), std::string::npos) << error_of(boxed);
+  const std::string fixed = replace(boxed, "[0, 0, -0.0005]", "[0, 0, -0.001]");
+  EXPECT_EQ(error_of(fixed), "");
+  EXPECT_NE(error_of(fixed, {"particles.1.position.0=0.02"}).find("lies outside the domain"),
+            std::string::npos);
+  EXPECT_NE(error_of(fixed, {"particles.1.position.0=0.0019"}).find("overlaps particles.0"),
+            std::string::npos);
+  EXPECT_NE(error_of(fixed, {"domain.max.1=-0.02"}).find("must exceed min"), std::string::npos);
+}
+
+TEST(CaseFile, InsertionsAddParticlesAndReportFailures) {
+  const std::string filled =
+      kValid + R"(domain: {min: [-0.01, -0.01, -0.01], max: [0.01, 0.01, 0.01]}
+insert:
+  - {type: lattice, region: {min: [-0.01, -0.01, 0.004], max: [0.01, 0.01, 0.01]}, spacing: 0.002, radius: 0.0009, material: powder}
+  - type: random
+    region: {min: [-0.01, -0.01, -0.01], max: [0.01, 0.01, -0.002]}
+    material: powder
+    count: 200
+    radius: {distribution: lognormal, median: 0.0003, sigma: 0.2, min: 0.0002, max: 0.0005}
+    seed: 4
+)";
+  const Case c = parse_case(filled, "case.yaml");
+  EXPECT_EQ(c.particles.size(), 2u + 10u * 10u * 3u + 200u);
+  std::string e = error_of(filled, {"insert.1.count=100000"});
+  EXPECT_NE(e.find("case.yaml:19:5: 'insert.1': random fill"), std::string::npos) << e;
+  e = error_of(filled, {"insert.1.radius.sigma=-1"});
+  EXPECT_NE(e.find("'insert.1.radius.sigma': must be positive"), std::string::npos) << e;
+  e = error_of(filled, {"insert.0.type=hexagonal"});
+  EXPECT_NE(e.find("unknown insertion 'hexagonal'"), std::string::npos) << e;
 }
 
 TEST(CaseFile, OverridesSetScalarsByDottedPath) {
