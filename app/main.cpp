@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
+#include <csignal>
 #include <iomanip>
 #include <iostream>
 #include <optional>
@@ -17,6 +18,7 @@
 #include "io/run.hpp"
 #include "solver/calculator.hpp"
 #include "solver/collision.hpp"
+#include "solver/stepper.hpp"
 
 namespace {
 
@@ -237,7 +239,16 @@ int run_collide(const CollideOptions& o) {
   return 0;
 }
 
+/// Set by SIGINT/SIGTERM; the run loop stops after the current step.
+volatile std::sig_atomic_t g_stop_signal = 0;
+
+extern "C" void request_stop(int signal_number) {
+  g_stop_signal = signal_number;
+}
+
 struct RunCommand {
+  std::string restart;
+  bool unsafe_time_step = false;
   std::string case_path;
   std::vector<std::string> overrides;
   std::optional<int> threads;
@@ -261,6 +272,11 @@ int run_run(const RunCommand& o) {
   bondem::RunOptions options;
   options.output_directory = o.output;
   options.quiet = o.quiet;
+  options.restart_path = o.restart;
+  options.enforce_time_step_limit = !o.unsafe_time_step;
+  options.stop_requested = &g_stop_signal;
+  std::signal(SIGINT, request_stop);
+  std::signal(SIGTERM, request_stop);
   const bondem::RunResult r = bondem::run_case(c, options, std::cerr);
   const std::string directory = o.output.empty() ? c.output_directory : o.output;
   std::cout << "output_directory = " << directory << "\n"
@@ -318,6 +334,9 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--output", run.output, "Output directory (default: output.directory)");
   run_cmd->add_option("--set", run.overrides, "Override a scalar: KEY=VALUE (dotted key)");
   run_cmd->add_flag("--quiet", run.quiet, "No progress lines");
+  run_cmd->add_option("--restart", run.restart, "Continue from a checkpoint file");
+  run_cmd->add_flag("--unsafe-time-step", run.unsafe_time_step,
+                    "Run even if time.step exceeds the recommended one (blow-ups still stop it)");
 
   try {
     app.parse(argc, argv);
@@ -334,6 +353,12 @@ int main(int argc, char** argv) {
     if (info->parsed()) return run_info(info_case, info_overrides, info_velocity);
     if (collide_cmd->parsed()) return run_collide(collide);
     if (run_cmd->parsed()) return run_run(run);
+  } catch (const bondem::RunInterrupted& e) {
+    std::cerr << "bondem: " << e.what() << "\n";
+    return 128 + static_cast<int>(g_stop_signal);
+  } catch (const bondem::BlowUpError& e) {
+    std::cerr << "bondem: blow-up: " << e.what() << "\n";
+    return 3;
   } catch (const bondem::CaseError& e) {
     std::cerr << "bondem: error: " << e.what() << "\n";
     return kBadInput;

@@ -8,13 +8,13 @@
 
 namespace bondem {
 
-AtomicFile::AtomicFile(std::string path)
+AtomicFile::AtomicFile(std::string path, std::ios::openmode mode)
     : path_(std::move(path)), temporary_(path_ + ".tmp." + std::to_string(::getpid())) {
   const std::filesystem::path parent = std::filesystem::path(path_).parent_path();
   std::error_code error;
   if (!parent.empty()) std::filesystem::create_directories(parent, error);
   if (error) throw std::runtime_error(path_ + ": cannot create directory: " + error.message());
-  stream_.open(temporary_, std::ios::out | std::ios::trunc);
+  stream_.open(temporary_, mode | std::ios::out | std::ios::trunc);
   if (!stream_) throw std::runtime_error(path_ + ": cannot open for writing");
   stream_.precision(17);
 }

@@ -13,7 +13,7 @@ namespace bondem {
 class AtomicFile {
  public:
   /// Open the temporary file; creates missing parent directories. Throws std::runtime_error.
-  explicit AtomicFile(std::string path);
+  explicit AtomicFile(std::string path, std::ios::openmode mode = std::ios::out);
   ~AtomicFile();
   AtomicFile(const AtomicFile&) = delete;
   AtomicFile& operator=(const AtomicFile&) = delete;

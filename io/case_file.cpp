@@ -582,14 +582,27 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
     }
   }
 
+  if (const YAML::Node limits = root["limits"]) {
+    reader.expect_map(limits, "limits");
+    reader.check_keys(limits, "limits", {"max_overlap_fraction"});
+    const YAML::Node fraction = reader.require(limits, "limits", "max_overlap_fraction");
+    c.max_overlap_fraction = reader.positive(fraction, "limits.max_overlap_fraction");
+    if (c.max_overlap_fraction > 1.0) {
+      reader.fail(fraction, "limits.max_overlap_fraction", "must not exceed 1 (a whole radius)");
+    }
+  }
+
   if (const YAML::Node output = root["output"]) {
     reader.expect_map(output, "output");
-    reader.check_keys(output, "output", {"directory", "history_interval"});
+    reader.check_keys(output, "output", {"directory", "history_interval", "checkpoint_interval"});
     const YAML::Node directory = reader.require(output, "output", "directory");
     c.output_directory = reader.text(directory, "output.directory");
     if (c.output_directory.empty()) reader.fail(directory, "output.directory", "is empty");
     if (const YAML::Node interval = output["history_interval"]) {
       c.history_interval = reader.positive(interval, "output.history_interval");
+    }
+    if (const YAML::Node interval = output["checkpoint_interval"]) {
+      c.checkpoint_interval = reader.positive(interval, "output.checkpoint_interval");
     }
   }
   if (const YAML::Node analysis = root["analysis"]) {

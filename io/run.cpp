@@ -1,6 +1,7 @@
 #include "io/run.hpp"
 
 #include <omp.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -9,11 +10,13 @@
 #include <filesystem>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <ostream>
 #include <sstream>
 
 #include "io/atomic_file.hpp"
 #include "io/case_file.hpp"
+#include "io/checkpoint.hpp"
 #include "solver/calculator.hpp"
 #include "solver/scene.hpp"
 #include "solver/stepper.hpp"
@@ -46,69 +49,183 @@ void write_final_state(const Particles& p, const std::string& path) {
 
 }  // namespace
 
+namespace {
+
+/// Progress on a terminal: one line rewritten in place; otherwise a plain line now and then.
+class Progress {
+ public:
+  Progress(std::ostream& log, bool quiet, std::int64_t first_step, std::int64_t last_step,
+           std::size_t particles)
+      : log_(log),
+        quiet_(quiet),
+        terminal_(::isatty(::fileno(stderr)) != 0),
+        first_(first_step),
+        last_(last_step),
+        particles_(static_cast<double>(particles)),
+        start_(Clock::now()),
+        shown_(start_) {}
+
+  void update(std::int64_t step, double time) {
+    if (quiet_ || (step & 31) != 0) return;
+    const auto now = Clock::now();
+    if (now - shown_ < (terminal_ ? std::chrono::milliseconds(500) : std::chrono::seconds(10)))
+      return;
+    shown_ = now;
+    const double elapsed = std::chrono::duration<double>(now - start_).count();
+    const double rate = static_cast<double>(step - first_) / elapsed;
+    std::ostringstream line;
+    line.precision(4);
+    line << "t = " << time << " s  "
+         << 100.0 * static_cast<double>(step) / static_cast<double>(last_) << " %  " << rate
+         << " steps/s  " << rate * particles_ << " particle-steps/s  "
+         << static_cast<double>(last_ - step) / rate << " s left";
+    if (terminal_) {
+      log_ << '\r' << line.str() << "\x1b[K" << std::flush;
+    } else {
+      log_ << line.str() << '\n';
+    }
+  }
+
+  void finish() {
+    if (!quiet_ && terminal_) log_ << '\n';
+  }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  std::ostream& log_;
+  bool quiet_;
+  bool terminal_;
+  std::int64_t first_, last_;
+  double particles_;
+  Clock::time_point start_, shown_;
+};
+
+}  // namespace
+
 RunResult run_case(const Case& description, const RunOptions& options, std::ostream& log) {
   const double recommended = case_time_step_limit(description);
-  if (description.time_step > recommended) {
+  if (options.enforce_time_step_limit && description.time_step > recommended) {
     std::ostringstream message;
     message << description.source << ": 'time.step': " << description.time_step
             << " s is above the recommended " << recommended
             << " s (min of t_contact/50, T_bond/50, 0.2 T_Rayleigh; see bondem info); "
-               "lower time.step";
+               "lower time.step (or --unsafe-time-step)";
     throw CaseError(message.str());
   }
   const std::filesystem::path directory =
       options.output_directory.empty() ? description.output_directory : options.output_directory;
+  const std::string checkpoint_path = (directory / "checkpoint.bin").string();
+  const std::uint64_t fingerprint = case_fingerprint(description);
 
   Scene scene = build_scene(description);
-  Stepper stepper(scene);
+  std::ostringstream history;
+  std::optional<Stepper> stepper_storage;
+  if (options.restart_path.empty()) {
+    stepper_storage.emplace(scene);
+    history << "time,kinetic_energy,contacts,bonds,wall_contacts,max_overlap\n";
+  } else {
+    Checkpoint restored;
+    try {
+      restored = read_checkpoint(options.restart_path);
+    } catch (const CheckpointError& e) {
+      throw CaseError(e.what());
+    }
+    if (restored.case_fingerprint != fingerprint) {
+      throw CaseError(options.restart_path +
+                      ": checkpoint was written by a different case (its "
+                      "materials, laws, time step, domain, walls or particle count differ from " +
+                      description.source + ")");
+    }
+    scene.particles = std::move(restored.particles);
+    stepper_storage.emplace(scene, restored.stepper);
+    history << restored.history;
+  }
+  Stepper& stepper = *stepper_storage;
+
   const auto steps =
       static_cast<std::int64_t>(std::llround(description.end_time / description.time_step));
-  const double interval = description.history_interval > 0.0 ? description.history_interval
-                                                             : description.end_time / 100.0;
-  const auto history_every =
-      std::max<std::int64_t>(1, std::llround(interval / description.time_step));
+  const auto every = [&](double interval, double fallback) {
+    return std::max<std::int64_t>(
+        1, std::llround((interval > 0.0 ? interval : fallback) / description.time_step));
+  };
+  const std::int64_t history_every =
+      every(description.history_interval, description.end_time / 100.0);
+  const std::int64_t checkpoint_every =
+      every(description.checkpoint_interval, 2.0 * description.end_time);
 
-  AtomicFile history((directory / "history.csv").string());
-  history.stream() << "time,kinetic_energy,contacts,bonds,wall_contacts,max_overlap\n";
   const auto record = [&] {
     const ContactSummary& c = stepper.contacts();
-    history.stream() << exact(stepper.time()) << ',' << exact(stepper.kinetic_energy()) << ','
-                     << c.contacts << ',' << c.bonds << ',' << c.wall_contacts << ','
-                     << exact(c.max_overlap) << '\n';
+    history << exact(stepper.time()) << ',' << exact(stepper.kinetic_energy()) << ',' << c.contacts
+            << ',' << c.bonds << ',' << c.wall_contacts << ',' << exact(c.max_overlap) << '\n';
   };
-  record();
+  const auto write_history = [&] {
+    AtomicFile file((directory / "history.csv").string());
+    file.stream() << history.str();
+    file.commit();
+  };
+  const auto checkpoint = [&] {
+    write_checkpoint(checkpoint_path,
+                     {fingerprint, scene.particles, stepper.save_state(), history.str()});
+  };
+  if (stepper.step_count() == 0) record();
 
+  // The last state known to be sound, for a blow-up report.
+  Particles last_good = scene.particles;
+  const std::size_t n = scene.particles.size();
+  Progress progress(log, options.quiet, stepper.step_count(), steps, n);
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
-  auto last_report = start;
-  const std::size_t n = scene.particles.size();
-  for (std::int64_t s = 1; s <= steps; ++s) {
-    stepper.step();
-    if (s % history_every == 0 || s == steps) record();
-    if (!options.quiet && (s & 63) == 0) {
-      const auto now = Clock::now();
-      if (now - last_report > std::chrono::seconds(5)) {
-        last_report = now;
-        const double elapsed = std::chrono::duration<double>(now - start).count();
-        const double rate = static_cast<double>(s) / elapsed;
-        log << "t = " << stepper.time() << " s ("
-            << 100.0 * static_cast<double>(s) / static_cast<double>(steps) << " %), " << rate
-            << " steps/s, " << rate * static_cast<double>(n) << " particle-steps/s, "
-            << static_cast<double>(steps - s) / rate << " s left\n";
+  const std::int64_t first_step = stepper.step_count();
+  for (std::int64_t s = first_step + 1; s <= steps; ++s) {
+    try {
+      stepper.step();
+    } catch (const BlowUpError& e) {
+      progress.finish();
+      write_history();
+      write_final_state(last_good, (directory / "last_good_state.csv").string());
+      std::ostringstream message;
+      message << e.what() << ". Likely cause: ";
+      if (description.time_step > 0.5 * recommended) {
+        message << "time.step = " << description.time_step << " s against the recommended "
+                << recommended << " s; try a smaller step";
+      } else {
+        message << "initial overlaps, a stiff material or a wall cutting particles";
       }
+      message << ". Last good state: " << (directory / "last_good_state.csv").string();
+      throw BlowUpError(message.str());
+    }
+    if (s % history_every == 0 || s == steps) {
+      record();
+      last_good = scene.particles;
+    }
+    if (s % checkpoint_every == 0 && s != steps) checkpoint();
+    progress.update(s, stepper.time());
+    if (options.stop_requested != nullptr && *options.stop_requested != 0 && s != steps) {
+      progress.finish();
+      checkpoint();
+      write_history();
+      write_final_state(scene.particles, (directory / "final_state.csv").string());
+      std::ostringstream message;
+      message << "interrupted at step " << s << " (t = " << stepper.time()
+              << " s); checkpoint written. Resume with: bondem run " << description.source
+              << " --output " << directory.string() << " --restart " << checkpoint_path;
+      throw RunInterrupted(message.str());
     }
   }
+  progress.finish();
   const double wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  history.commit();
+  write_history();
   write_final_state(scene.particles, (directory / "final_state.csv").string());
+  checkpoint();
 
   RunResult result;
-  result.steps = steps;
+  result.steps = steps - first_step;
   result.particles = n;
   result.threads = omp_get_max_threads();
   result.wall_seconds = wall_seconds;
   result.particle_steps_per_second =
-      wall_seconds > 0.0 ? static_cast<double>(steps) * static_cast<double>(n) / wall_seconds : 0.0;
+      wall_seconds > 0.0 ? static_cast<double>(result.steps) * static_cast<double>(n) / wall_seconds
+                         : 0.0;
   result.neighbor_builds = stepper.neighbors().builds;
   result.contacts = stepper.contacts();
   double max_radius = 0.0;

@@ -2,9 +2,11 @@
 /// @file run.hpp
 /// A whole run: case -> scene -> stepper, with the observers that write its outputs.
 
+#include <csignal>
 #include <cstdint>
 #include <iosfwd>
 #include <optional>
+#include <stdexcept>
 #include <string>
 
 #include "solver/analysis.hpp"
@@ -15,8 +17,18 @@ namespace bondem {
 
 /// How to run (not what: that is the case).
 struct RunOptions {
-  std::string output_directory;  ///< overrides the case's output.directory when not empty
-  bool quiet = false;            ///< no progress lines
+  std::string output_directory;         ///< overrides the case's output.directory when not empty
+  bool quiet = false;                   ///< no progress lines
+  std::string restart_path;             ///< continue from this checkpoint when not empty
+  bool enforce_time_step_limit = true;  ///< refuse a time step above case_time_step_limit()
+  /// Set asynchronously (SIGINT, SIGTERM) to stop after the current step with a checkpoint.
+  const volatile std::sig_atomic_t* stop_requested = nullptr;
+};
+
+/// The run stopped on request; checkpoint and outputs are written, the message says how to resume.
+class RunInterrupted : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
 };
 
 /// What a finished run reports.
@@ -32,11 +44,13 @@ struct RunResult {
   Box packing_region;
 };
 
-/// Run @p description to time.end, writing `history.csv` (time, kinetic energy, contacts, bonds,
-/// wall contacts, largest overlap, at output.history_interval) and `final_state.csv` (one row per
-/// particle sorted by id: id, x, y, z, vx, vy, vz, radius, 17 significant digits) into the output
-/// directory. Progress goes to @p log. Throws CaseError when the time step exceeds the recommended
-/// one, std::runtime_error when the run fails; no partial output file is left behind.
+/// Run @p description to time.end, writing into the output directory `history.csv` (time,
+/// kinetic energy, contacts, bonds, wall contacts, largest overlap, at output.history_interval),
+/// `final_state.csv` (one row per particle sorted by id: id, x, y, z, vx, vy, vz, radius, 17
+/// significant digits) and `checkpoint.bin` (at output.checkpoint_interval and at the end).
+/// Progress goes to @p log. Throws CaseError when the time step exceeds the recommended one or a
+/// restart checkpoint does not fit, RunInterrupted when stopped on request, BlowUpError (after
+/// writing `last_good_state.csv`) when the physics blows up. Every file is written atomically.
 RunResult run_case(const Case& description, const RunOptions& options, std::ostream& log);
 
 }  // namespace bondem

@@ -55,8 +55,10 @@ struct Case {
   std::vector<PlaneWall> walls;
   double skin = 0.0;          ///< Verlet skin [m]; 0 picks 0.2 x the largest radius
   int reorder_interval = 20;  ///< neighbor-list builds between reorderings by cell (0: never)
+  double max_overlap_fraction = 0.25;  ///< overlap / smaller radius that stops a run (blow-up)
   std::string output_directory = "output";
-  double history_interval = 0.0;  ///< [s] between history rows; 0 picks end / 100
+  double checkpoint_interval = 0.0;  ///< [s] between checkpoints; 0: only at the end
+  double history_interval = 0.0;     ///< [s] between history rows; 0 picks end / 100
   /// Region whose particle centres define the reported bed solid fraction and coordination.
   std::optional<Box> analysis_region;
 

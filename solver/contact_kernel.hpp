@@ -20,10 +20,11 @@ namespace bondem {
 
 /// What a force evaluation saw.
 struct ContactSummary {
-  std::size_t contacts = 0;       ///< particle pairs with positive overlap
-  std::size_t bonds = 0;          ///< contacts on the adhesive branch of eq. 25
-  std::size_t wall_contacts = 0;  ///< particle-wall contacts
-  double max_overlap = 0.0;       ///< largest overlap of any contact [m]
+  std::size_t contacts = 0;           ///< particle pairs with positive overlap
+  std::size_t bonds = 0;              ///< contacts on the adhesive branch of eq. 25
+  std::size_t wall_contacts = 0;      ///< particle-wall contacts
+  double max_overlap = 0.0;           ///< largest overlap of any contact [m]
+  double max_overlap_fraction = 0.0;  ///< largest overlap / radius of the smaller body
 };
 
 /// Per-pair forces on the first particle of each pair, one slot per neighbor-list entry.
@@ -45,7 +46,9 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
   std::size_t contacts = 0;
   std::size_t bonds = 0;
   double max_overlap = 0.0;
-#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) reduction(+ : contacts, bonds) reduction(max : max_overlap)
+  double max_fraction = 0.0;
+#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) \
+    reduction(+ : contacts, bonds) reduction(max : max_overlap, max_fraction)
   for (std::size_t i = 0; i < n; ++i) {
     for (std::uint32_t k = list.row_begin[i]; k < list.row_begin[i + 1]; ++k) {
       const std::size_t j = list.second[k];
@@ -78,9 +81,10 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
       ++contacts;
       bonds += f.bonded ? 1 : 0;
       max_overlap = std::max(max_overlap, overlap);
+      max_fraction = std::max(max_fraction, overlap / std::min(p.radius[i], p.radius[j]));
     }
   }
-  return {contacts, bonds, 0, max_overlap};
+  return {contacts, bonds, 0, max_overlap, max_fraction};
 }
 
 /// Damped Hertz force of @p wall on particle i (zero when apart); returns the overlap.
@@ -115,7 +119,9 @@ inline ContactSummary gather_forces(Particles& p, const Scene& scene, const Neig
   const Eigen::Vector3d g = scene.gravity;
   std::size_t wall_contacts = 0;
   double max_overlap = 0.0;
-#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) reduction(+ : wall_contacts) reduction(max : max_overlap)
+  double max_fraction = 0.0;
+#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) \
+    reduction(+ : wall_contacts) reduction(max : max_overlap, max_fraction)
   for (std::size_t i = 0; i < n; ++i) {
     double fx = p.mass[i] * g.x();
     double fy = p.mass[i] * g.y();
@@ -140,12 +146,13 @@ inline ContactSummary gather_forces(Particles& p, const Scene& scene, const Neig
       fz += f.z();
       ++wall_contacts;
       max_overlap = std::max(max_overlap, overlap);
+      max_fraction = std::max(max_fraction, overlap / p.radius[i]);
     }
     p.fx[i] = fx;
     p.fy[i] = fy;
     p.fz[i] = fz;
   }
-  return {0, 0, wall_contacts, max_overlap};
+  return {0, 0, wall_contacts, max_overlap, max_fraction};
 }
 
 }  // namespace bondem

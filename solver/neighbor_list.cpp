@@ -197,6 +197,31 @@ void NeighborList::build(Particles& p, const Domain& domain, double skin, bool r
   ++builds;
 }
 
+void NeighborList::save(NeighborListState& state) const {
+  state.builds = builds;
+  state.x0 = x0_;
+  state.y0 = y0_;
+  state.z0 = z0_;
+}
+
+void NeighborList::restore(Particles& p, const Domain& domain, double skin,
+                           const NeighborListState& state) {
+  if (state.x0.size() != p.size()) {
+    throw std::runtime_error("neighbor-list state does not match the particle count");
+  }
+  // The list is a function of the build positions alone: rebuild from them, then put the
+  // current positions back. Wrapping already-wrapped coordinates leaves them unchanged.
+  std::vector<double> x = state.x0, y = state.y0, z = state.z0;
+  p.x.swap(x);
+  p.y.swap(y);
+  p.z.swap(z);
+  build(p, domain, skin, false);
+  p.x.swap(x);
+  p.y.swap(y);
+  p.z.swap(z);
+  builds = state.builds;
+}
+
 double NeighborList::max_displacement_sq(const Particles& p) const {
   const std::size_t n = p.size();
   double largest = 0.0;

@@ -12,6 +12,12 @@
 
 namespace bondem {
 
+/// What a neighbor list needs to be rebuilt exactly as it was: the positions of its last build.
+struct NeighborListState {
+  std::int64_t builds = 0;
+  std::vector<double> x0, y0, z0;
+};
+
 /// Half neighbor list in compressed rows: row i lists the particles j > i whose surfaces were
 /// closer than the skin at the last build, each with the periodic image of j to use.
 /// A transposed index lists, for every particle j, the pairs in which it is the second member, so
@@ -22,6 +28,12 @@ class NeighborList {
   /// @p reorder is set, first sorts all particle arrays by cell for cache locality.
   /// Throws std::runtime_error on a non-finite position or a periodic axis too short for the grid.
   void build(Particles& p, const Domain& domain, double skin, bool reorder);
+
+  /// Save the positions of the last build and the build count.
+  void save(NeighborListState& state) const;
+
+  /// Rebuild the list of a saved state for particles in the same order (no reordering).
+  void restore(Particles& p, const Domain& domain, double skin, const NeighborListState& state);
 
   /// Largest squared displacement of any particle since the last build.
   double max_displacement_sq(const Particles& p) const;

@@ -38,6 +38,7 @@ Scene build_scene(const Case& description) {
     max_radius = std::max(max_radius, spec.radius);
   scene.skin = description.skin > 0.0 ? description.skin : 0.2 * max_radius;
   scene.reorder_interval = description.reorder_interval;
+  scene.max_overlap_fraction = description.max_overlap_fraction;
   if (description.domain) {
     scene.domain = *description.domain;
   } else if (!description.particles.empty()) {

@@ -1,5 +1,7 @@
 #include "solver/stepper.hpp"
 
+#include <cmath>
+#include <sstream>
 #include <stdexcept>
 
 namespace bondem {
@@ -11,6 +13,20 @@ Stepper::Stepper(Scene& scene, PairFlag pair_flag)
   }
   list_.build(scene_.particles, scene_.domain, scene_.skin, scene_.reorder_interval > 0);
   compute_forces();
+}
+
+Stepper::Stepper(Scene& scene, const StepperState& restored, PairFlag pair_flag)
+    : scene_(scene), pair_flag_(std::move(pair_flag)) {
+  if (scene_.criterion == BondCriterion::kPairFlag && !pair_flag_) {
+    throw std::invalid_argument("bond criterion 'pair flag' needs a pair-flag supplier");
+  }
+  // Forces come with the particles: they were evaluated with the half-step velocities of the
+  // interrupted step, which a fresh evaluation could not reproduce.
+  list_.restore(scene_.particles, scene_.domain, scene_.skin, restored.list);
+  pair_forces_.resize(list_.pair_count());
+  contacts_ = restored.contacts;
+  time_ = restored.time;
+  step_count_ = restored.step;
 }
 
 template <class Adhesion>
@@ -38,6 +54,7 @@ void Stepper::compute_forces() {
   const ContactSummary walls = gather_forces(scene_.particles, scene_, list_, pair_forces_);
   pairs.wall_contacts = walls.wall_contacts;
   pairs.max_overlap = std::max(pairs.max_overlap, walls.max_overlap);
+  pairs.max_overlap_fraction = std::max(pairs.max_overlap_fraction, walls.max_overlap_fraction);
   contacts_ = pairs;
 }
 
@@ -65,14 +82,69 @@ void Stepper::step() {
     list_.build(p, scene_.domain, scene_.skin, reorder);
   }
   compute_forces();
-#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles)
+  bool finite = true;
+#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) reduction(&& : finite)
   for (std::size_t i = 0; i < n; ++i) {
     const double kick = half_dt * p.inv_mass[i];
     p.vx[i] += kick * p.fx[i];
     p.vy[i] += kick * p.fy[i];
     p.vz[i] += kick * p.fz[i];
+    finite = finite && std::isfinite(p.vx[i] + p.vy[i] + p.vz[i] + p.x[i] + p.y[i] + p.z[i]);
   }
   time_ = static_cast<double>(++step_count_) * dt;
+  if (!finite || contacts_.max_overlap_fraction > scene_.max_overlap_fraction) {
+    throw BlowUpError(diagnose_blow_up(finite));
+  }
+}
+
+std::string Stepper::diagnose_blow_up(bool finite) const {
+  const Particles& p = scene_.particles;
+  std::ostringstream message;
+  message << "step " << step_count_ << " (t = " << time_ << " s): ";
+  if (!finite) {
+    message << "non-finite position or velocity of particle id";
+    int shown = 0;
+    for (std::size_t i = 0; i < p.size() && shown < 5; ++i) {
+      if (!std::isfinite(p.vx[i] + p.vy[i] + p.vz[i] + p.x[i] + p.y[i] + p.z[i])) {
+        message << (shown++ ? ", " : " ") << p.id[i];
+      }
+    }
+    return message.str();
+  }
+  message << "an overlap exceeds " << scene_.max_overlap_fraction
+          << " of the smaller radius (largest: " << contacts_.max_overlap_fraction << ")";
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    for (std::uint32_t k = list_.row_begin[i]; k < list_.row_begin[i + 1]; ++k) {
+      const std::size_t j = list_.second[k];
+      const Eigen::Vector3d& s = list_.shifts[list_.image[k]];
+      const Eigen::Vector3d d(p.x[j] - p.x[i] + s.x(), p.y[j] - p.y[i] + s.y(),
+                              p.z[j] - p.z[i] + s.z());
+      const double overlap = p.radius[i] + p.radius[j] - d.norm();
+      if (overlap > scene_.max_overlap_fraction * std::min(p.radius[i], p.radius[j])) {
+        message << "; particle ids " << p.id[i] << " and " << p.id[j];
+        return message.str();
+      }
+    }
+  }
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    for (const PlaneWall& wall : scene_.walls) {
+      const double overlap = p.radius[i] - distance_to(wall, p.x[i], p.y[i], p.z[i]);
+      if (overlap > scene_.max_overlap_fraction * p.radius[i]) {
+        message << "; particle id " << p.id[i] << " in wall '" << wall.name << "'";
+        return message.str();
+      }
+    }
+  }
+  return message.str();
+}
+
+StepperState Stepper::save_state() const {
+  StepperState state;
+  state.time = time_;
+  state.step = step_count_;
+  state.contacts = contacts_;
+  list_.save(state.list);
+  return state;
 }
 
 std::vector<Eigen::Vector3d> Stepper::wall_forces() const {

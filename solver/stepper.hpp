@@ -4,6 +4,8 @@
 
 #include <cstdint>
 #include <functional>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "solver/contact_kernel.hpp"
@@ -11,6 +13,20 @@
 #include "solver/scene.hpp"
 
 namespace bondem {
+
+/// A run that left the physics: non-finite values or an overlap beyond the scene's limit.
+class BlowUpError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Everything besides the particle arrays that a restarted stepper needs to continue bit for bit.
+struct StepperState {
+  double time = 0.0;
+  std::int64_t step = 0;
+  ContactSummary contacts;
+  NeighborListState list;
+};
 
 /// Advances a scene in time. Owns the neighbor list and per-pair force slots; the scene owns the
 /// particles. OpenMP-parallel; the state after any number of steps is the same bytes for any
@@ -23,8 +39,16 @@ class Stepper {
   /// Prepare to step @p scene: builds the neighbor list and evaluates the initial forces.
   explicit Stepper(Scene& scene, PairFlag pair_flag = {});
 
-  /// One velocity-Verlet step of scene.time_step.
+  /// Continue from a saved state; the scene's particles (forces included) must be those saved
+  /// with it.
+  Stepper(Scene& scene, const StepperState& restored, PairFlag pair_flag = {});
+
+  /// One velocity-Verlet step of scene.time_step. Throws BlowUpError, after completing the step,
+  /// when a value is not finite or an overlap exceeds scene.max_overlap_fraction of a radius.
   void step();
+
+  /// The state to checkpoint together with the particles.
+  StepperState save_state() const;
 
   /// Simulated time [s].
   double time() const { return time_; }
@@ -41,6 +65,7 @@ class Stepper {
 
  private:
   void compute_forces();
+  std::string diagnose_blow_up(bool finite) const;
   template <class Adhesion>
   ContactSummary dispatch_criterion(Adhesion adhesion);
 

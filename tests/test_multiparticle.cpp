@@ -144,8 +144,8 @@ TEST(Bonds, PairInsideACrowdSettlesAtEquilibrium) {
   }
   ParticleSpec left, right;
   left.radius = right.radius = 1e-3;
-  left.position = Eigen::Vector3d(0.0195, 0.01, 0.002);  // straddles the periodic x boundary
-  right.position = Eigen::Vector3d(0.0005, 0.01, 0.002);
+  left.position = Eigen::Vector3d(0.019, 0.01, 0.002);  // touching across the periodic x boundary
+  right.position = Eigen::Vector3d(0.001, 0.01, 0.002);
   left.velocity = Eigen::Vector3d(0.5 * v, 0.0, 0.0);
   right.velocity = Eigen::Vector3d(-0.5 * v, 0.0, 0.0);
   c.particles.push_back(left);

@@ -1,0 +1,559 @@
+#include "io/vtk_output.hpp"
+
+#include <unistd.h>
+#include <vtkCellArray.h>
+#include <vtkCellData.h>
+#include <vtkCommand.h>
+#include <vtkDataArray.h>
+#include <vtkDoubleArray.h>
+#include <vtkErrorCode.h>
+#include <vtkExecutive.h>
+#include <vtkIdList.h>
+#include <vtkNew.h>
+#include <vtkPointData.h>
+#include <vtkPoints.h>
+#include <vtkPolyData.h>
+#include <vtkSmartPointer.h>
+#include <vtkTypeInt32Array.h>
+#include <vtkTypeInt64Array.h>
+#include <vtkTypeUInt8Array.h>
+#include <vtkXMLPolyDataReader.h>
+#include <vtkXMLPolyDataWriter.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <set>
+#include <stdexcept>
+#include <system_error>
+#include <utility>
+
+#include "io/atomic_file.hpp"
+
+namespace bondem {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// Receives the errors VTK would print to stderr, so that they end up in the exception instead.
+class ErrorCollector : public vtkCommand {
+ public:
+  static ErrorCollector* New() { return new ErrorCollector; }
+
+  void Execute(vtkObject*, unsigned long, void* call_data) override {
+    // Keep the first message: later ones are usually consequences of it.
+    if (!message.empty()) return;
+    std::string text = call_data != nullptr ? static_cast<const char*>(call_data) : "VTK error";
+    // Drop the "ERROR: In file, line N" and "vtkClass (0x...): " decoration.
+    if (const std::size_t start = text.find("): "); start != std::string::npos) {
+      text.erase(0, start + 3);
+    }
+    std::replace(text.begin(), text.end(), '\n', ' ');
+    while (!text.empty() && text.back() == ' ') text.pop_back();
+    message = text.empty() ? "VTK error" : text;
+  }
+
+  std::string message;
+};
+
+/// A temporary file that is removed unless released: no exception path leaves one behind.
+class TemporaryFile {
+ public:
+  explicit TemporaryFile(const std::string& final_path)
+      : path_(final_path + ".tmp." + std::to_string(::getpid())) {}
+  ~TemporaryFile() {
+    if (!released_) {
+      std::error_code ignored;
+      fs::remove(path_, ignored);
+    }
+  }
+  TemporaryFile(const TemporaryFile&) = delete;
+  TemporaryFile& operator=(const TemporaryFile&) = delete;
+
+  const std::string& path() const { return path_; }
+  void release() { released_ = true; }
+
+ private:
+  std::string path_;
+  bool released_ = false;
+};
+
+/// Write @p data to @p path as binary appended, zlib-compressed XML PolyData, atomically.
+void write_vtp(vtkPolyData* data, const std::string& path) {
+  TemporaryFile temporary(path);
+  vtkNew<ErrorCollector> errors;
+  vtkNew<vtkXMLPolyDataWriter> writer;
+  writer->AddObserver(vtkCommand::ErrorEvent, errors);
+  // The pipeline reports the writer's failure once more, from its executive.
+  writer->GetExecutive()->AddObserver(vtkCommand::ErrorEvent, errors);
+  writer->SetInputData(data);
+  writer->SetDataModeToAppended();
+  writer->EncodeAppendedDataOff();  // raw bytes: base64 would cost a third more
+  writer->SetCompressorTypeToZLib();
+  writer->SetHeaderTypeToUInt64();  // block sizes of arrays above 4 GiB still fit
+  writer->SetFileName(temporary.path().c_str());
+  const int written = writer->Write();
+  if (written != 1 || writer->GetErrorCode() != vtkErrorCode::NoError || !errors->message.empty()) {
+    throw std::runtime_error(path + ": cannot write VTK file" +
+                             (errors->message.empty() ? "" : ": " + errors->message));
+  }
+  std::error_code error;
+  fs::rename(temporary.path(), path, error);
+  if (error) throw std::runtime_error(path + ": cannot move into place: " + error.message());
+  temporary.release();
+}
+
+/// Shortest text that reads back as the same double, so .pvd times are exact.
+std::string format_time(double time) {
+  std::array<char, 32> buffer{};
+  const std::to_chars_result result =
+      std::to_chars(buffer.data(), buffer.data() + buffer.size(), time);
+  return std::string(buffer.data(), result.ptr);
+}
+
+/// "<series>_NNNNNN.vtp" for frame @p index.
+std::string frame_file(const char* series, std::size_t index) {
+  std::array<char, 64> buffer{};
+  std::snprintf(buffer.data(), buffer.size(), "%s_%06zu.vtp", series, index);
+  return buffer.data();
+}
+
+vtkIdType vtk_size(std::size_t n) {
+  return static_cast<vtkIdType>(n);
+}
+
+/// A one-component Float64 array holding @p values.
+vtkSmartPointer<vtkDoubleArray> scalar_array(const std::string& name,
+                                             const std::vector<double>& values) {
+  auto array = vtkSmartPointer<vtkDoubleArray>::New();
+  array->SetName(name.c_str());
+  array->SetNumberOfComponents(1);
+  array->SetNumberOfTuples(vtk_size(values.size()));
+  for (std::size_t i = 0; i < values.size(); ++i) array->SetValue(vtk_size(i), values[i]);
+  return array;
+}
+
+/// A three-component Float64 array interleaving the SoA components @p x, @p y, @p z.
+vtkSmartPointer<vtkDoubleArray> vector_array(const std::string& name, const std::vector<double>& x,
+                                             const std::vector<double>& y,
+                                             const std::vector<double>& z) {
+  auto array = vtkSmartPointer<vtkDoubleArray>::New();
+  array->SetName(name.c_str());
+  array->SetNumberOfComponents(3);
+  array->SetNumberOfTuples(vtk_size(x.size()));
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const double tuple[3] = {x[i], y[i], z[i]};
+    array->SetTypedTuple(vtk_size(i), tuple);
+  }
+  return array;
+}
+
+/// A one-component integer array of VTK type @p Array filled by @p value(i) for i < @p n.
+template <class Array, class Value>
+vtkSmartPointer<Array> integer_array(const char* name, std::size_t n, Value value) {
+  auto array = vtkSmartPointer<Array>::New();
+  array->SetName(name);
+  array->SetNumberOfComponents(1);
+  array->SetNumberOfTuples(vtk_size(n));
+  for (std::size_t i = 0; i < n; ++i) {
+    array->SetValue(vtk_size(i), static_cast<typename Array::ValueType>(value(i)));
+  }
+  return array;
+}
+
+/// Float64 points, so that positions read back bit for bit.
+vtkNew<vtkPoints> make_points(std::size_t n) {
+  vtkNew<vtkPoints> points;
+  points->SetDataTypeToDouble();
+  points->SetNumberOfPoints(vtk_size(n));
+  return points;
+}
+
+vtkSmartPointer<vtkPolyData> particle_data(
+    const Particles& p, const std::vector<VtkSeriesWriter::ScalarField>& scalars,
+    const std::vector<VtkSeriesWriter::VectorField>& vectors) {
+  const std::size_t n = p.size();
+  vtkNew<vtkPoints> points = make_points(n);
+  // One vertex cell per particle: ParaView's Points and Surface representations draw only cells.
+  vtkNew<vtkCellArray> verts;
+  verts->AllocateExact(vtk_size(n), vtk_size(n));
+  for (std::size_t i = 0; i < n; ++i) {
+    points->SetPoint(vtk_size(i), p.x[i], p.y[i], p.z[i]);
+    const vtkIdType point = vtk_size(i);
+    verts->InsertNextCell(1, &point);
+  }
+  auto data = vtkSmartPointer<vtkPolyData>::New();
+  data->SetPoints(points);
+  data->SetVerts(verts);
+  vtkPointData* arrays = data->GetPointData();
+  arrays->AddArray(
+      integer_array<vtkTypeInt64Array>("id", n, [&](std::size_t i) { return p.id[i]; }));
+  arrays->AddArray(scalar_array("radius", p.radius));
+  arrays->AddArray(vector_array("velocity", p.vx, p.vy, p.vz));
+  arrays->AddArray(vector_array("force", p.fx, p.fy, p.fz));
+  arrays->AddArray(integer_array<vtkTypeInt32Array>("material", n,
+                                                    [&](std::size_t i) { return p.material[i]; }));
+  for (const VtkSeriesWriter::ScalarField& field : scalars) {
+    arrays->AddArray(scalar_array(field.name, *field.values));
+  }
+  for (const VtkSeriesWriter::VectorField& field : vectors) {
+    arrays->AddArray(vector_array(field.name, *field.x, *field.y, *field.z));
+  }
+  return data;
+}
+
+vtkSmartPointer<vtkPolyData> contact_data(const std::vector<ContactRecord>& contacts) {
+  const std::size_t m = contacts.size();
+  vtkNew<vtkPoints> points = make_points(2 * m);
+  vtkNew<vtkCellArray> lines;
+  lines->AllocateExact(vtk_size(m), vtk_size(2 * m));
+  std::vector<double> overlap(m), normal_force(m);
+  for (std::size_t k = 0; k < m; ++k) {
+    const ContactRecord& c = contacts[k];
+    const vtkIdType ends[2] = {vtk_size(2 * k), vtk_size(2 * k + 1)};
+    points->SetPoint(ends[0], c.first_position.data());
+    points->SetPoint(ends[1], c.second_position.data());
+    lines->InsertNextCell(2, ends);
+    overlap[k] = c.overlap;
+    normal_force[k] = c.normal_force;
+  }
+  auto data = vtkSmartPointer<vtkPolyData>::New();
+  data->SetPoints(points);
+  data->SetLines(lines);
+  vtkCellData* arrays = data->GetCellData();
+  arrays->AddArray(scalar_array("overlap", overlap));
+  arrays->AddArray(scalar_array("normal_force", normal_force));
+  arrays->AddArray(integer_array<vtkTypeUInt8Array>(
+      "bonded", m, [&](std::size_t k) { return contacts[k].bonded ? 1 : 0; }));
+  arrays->AddArray(
+      integer_array<vtkTypeInt64Array>("id_i", m, [&](std::size_t k) { return contacts[k].id_i; }));
+  arrays->AddArray(
+      integer_array<vtkTypeInt64Array>("id_j", m, [&](std::size_t k) { return contacts[k].id_j; }));
+  return data;
+}
+
+using Polygon = std::vector<Eigen::Vector3d>;
+
+/// Sutherland-Hodgman step: the part of @p polygon where side * (p[axis] - bound) >= 0.
+Polygon clip(const Polygon& polygon, int axis, double bound, double side) {
+  Polygon kept;
+  for (std::size_t k = 0; k < polygon.size(); ++k) {
+    const Eigen::Vector3d& a = polygon[k];
+    const Eigen::Vector3d& b = polygon[(k + 1) % polygon.size()];
+    const double da = side * (a[axis] - bound);
+    const double db = side * (b[axis] - bound);
+    if (da >= 0.0) kept.push_back(a);
+    // Strict signs: a vertex lying on the bound is kept once, not again as an intersection.
+    if ((da > 0.0 && db < 0.0) || (da < 0.0 && db > 0.0)) {
+      Eigen::Vector3d crossing = a + (da / (da - db)) * (b - a);
+      crossing[axis] = bound;  // exactly on the face despite rounding
+      kept.push_back(crossing);
+    }
+  }
+  return kept;
+}
+
+/// Outline of @p wall: a square of side @p side centred at the foot of the domain centre,
+/// counter-clockwise about the wall normal, clipped to the domain box.
+Polygon wall_polygon(const PlaneWall& wall, const Domain& domain, double side) {
+  const Eigen::Vector3d n = wall.normal.normalized();
+  const Eigen::Vector3d centre = 0.5 * (domain.min + domain.max);
+  Eigen::Vector3d foot = centre - (centre - wall.point).dot(n) * n;
+  // A plane perpendicular to an axis is wholly inside or wholly outside that axis' slab, so the
+  // slab does not clip it; its coordinate is the wall's own, exactly.
+  std::array<bool, 3> perpendicular{};
+  for (int axis = 0; axis < 3; ++axis) {
+    perpendicular[static_cast<std::size_t>(axis)] = std::abs(n[axis]) >= 1.0 - 1e-12;
+    if (perpendicular[static_cast<std::size_t>(axis)]) foot[axis] = wall.point[axis];
+  }
+  // In-plane basis from the axis least aligned with n; for an axis-aligned normal, u and v are
+  // exactly axis-aligned, so a box face comes out as the exact face rectangle.
+  Eigen::Index least = 0;
+  n.cwiseAbs().minCoeff(&least);
+  const Eigen::Vector3d u = n.cross(Eigen::Vector3d::Unit(least)).normalized();
+  const Eigen::Vector3d v = n.cross(u);
+  const double half = 0.5 * side;
+  const Polygon square{foot - half * u - half * v, foot + half * u - half * v,
+                       foot + half * u + half * v, foot - half * u + half * v};
+  if (!(domain.length().array() > 0.0).all()) return square;
+  Polygon clipped = square;
+  for (int axis = 0; axis < 3 && clipped.size() >= 3; ++axis) {
+    if (perpendicular[static_cast<std::size_t>(axis)]) continue;
+    clipped = clip(clipped, axis, domain.min[axis], 1.0);
+    clipped = clip(clipped, axis, domain.max[axis], -1.0);
+  }
+  // A plane that misses the box is still drawn, unclipped, rather than silently dropped.
+  return clipped.size() >= 3 ? clipped : square;
+}
+
+vtkSmartPointer<vtkPolyData> wall_data(const std::vector<PlaneWall>& walls, const Domain& domain,
+                                       double side) {
+  vtkNew<vtkPoints> points;
+  points->SetDataTypeToDouble();
+  vtkNew<vtkCellArray> polys;
+  for (const PlaneWall& wall : walls) {
+    const Polygon outline = wall_polygon(wall, domain, side);
+    std::vector<vtkIdType> ids;
+    for (const Eigen::Vector3d& corner : outline)
+      ids.push_back(points->InsertNextPoint(corner.data()));
+    polys->InsertNextCell(vtk_size(ids.size()), ids.data());
+  }
+  auto data = vtkSmartPointer<vtkPolyData>::New();
+  data->SetPoints(points);
+  data->SetPolys(polys);
+  vtkCellData* arrays = data->GetCellData();
+  arrays->AddArray(integer_array<vtkTypeInt32Array>("wall_index", walls.size(),
+                                                    [](std::size_t w) { return w; }));
+  arrays->AddArray(integer_array<vtkTypeInt32Array>(
+      "material", walls.size(), [&](std::size_t w) { return walls[w].material; }));
+  return data;
+}
+
+void check_inputs(const Particles& p, const std::vector<PlaneWall>& walls,
+                  const std::vector<VtkSeriesWriter::ScalarField>& scalars,
+                  const std::vector<VtkSeriesWriter::VectorField>& vectors) {
+  const std::size_t n = p.size();
+  for (const std::vector<double>* field :
+       {&p.x, &p.y, &p.z, &p.vx, &p.vy, &p.vz, &p.fx, &p.fy, &p.fz, &p.radius}) {
+    if (field->size() != n)
+      throw std::invalid_argument("VTK output: particle arrays differ in size");
+  }
+  if (p.material.size() != n)
+    throw std::invalid_argument("VTK output: particle arrays differ in size");
+  // Duplicate names would make ParaView show only one of the arrays.
+  std::set<std::string> names{"id", "radius", "velocity", "force", "material"};
+  const auto check_name = [&](const std::string& name) {
+    if (name.empty()) throw std::invalid_argument("VTK output: extra field with an empty name");
+    if (!names.insert(name).second) {
+      throw std::invalid_argument("VTK output: field \"" + name + "\" is given twice");
+    }
+  };
+  const auto check_values = [&](const std::string& name, const std::vector<double>* values) {
+    if (values == nullptr || values->size() != n) {
+      throw std::invalid_argument("VTK output: field \"" + name + "\" needs " + std::to_string(n) +
+                                  " values, one per particle");
+    }
+  };
+  for (const VtkSeriesWriter::ScalarField& field : scalars) {
+    check_name(field.name);
+    check_values(field.name, field.values);
+  }
+  for (const VtkSeriesWriter::VectorField& field : vectors) {
+    check_name(field.name);
+    check_values(field.name, field.x);
+    check_values(field.name, field.y);
+    check_values(field.name, field.z);
+  }
+  for (std::size_t w = 0; w < walls.size(); ++w) {
+    const PlaneWall& wall = walls[w];
+    if (!wall.point.allFinite() || !wall.normal.allFinite() || !(wall.normal.norm() > 0.0)) {
+      throw std::invalid_argument("VTK output: wall " + std::to_string(w) + " (" + wall.name +
+                                  ") has no finite point and normal");
+    }
+  }
+}
+
+/// Write, atomically, the .pvd collection @p path listing @p files at @p times.
+void write_collection(const std::string& path, const std::vector<double>& times,
+                      const std::vector<std::string>& files) {
+  AtomicFile out(path);
+  std::ofstream& s = out.stream();
+  s << "<?xml version=\"1.0\"?>\n"
+       "<VTKFile type=\"Collection\" version=\"0.1\">\n"
+       "  <Collection>\n";
+  for (std::size_t k = 0; k < times.size(); ++k) {
+    s << "    <DataSet timestep=\"" << format_time(times[k]) << "\" part=\"0\" file=\"" << files[k]
+      << "\"/>\n";
+  }
+  s << "  </Collection>\n"
+       "</VTKFile>\n";
+  out.commit();
+}
+
+/// VTK XML name of the value type of @p array ("Float64", "Int32", "UInt8", ...).
+std::string xml_type_name(vtkDataArray* array) {
+  const std::string bits = std::to_string(8 * array->GetDataTypeSize());
+  switch (array->GetDataType()) {
+    case VTK_FLOAT:
+    case VTK_DOUBLE:
+      return "Float" + bits;
+    case VTK_UNSIGNED_CHAR:
+    case VTK_UNSIGNED_SHORT:
+    case VTK_UNSIGNED_INT:
+    case VTK_UNSIGNED_LONG:
+    case VTK_UNSIGNED_LONG_LONG:
+      return "UInt" + bits;
+    default:
+      return "Int" + bits;
+  }
+}
+
+std::vector<VtpArray> read_arrays(vtkDataSetAttributes* attributes) {
+  std::vector<VtpArray> arrays;
+  for (int a = 0; a < attributes->GetNumberOfArrays(); ++a) {
+    vtkDataArray* data = attributes->GetArray(a);
+    if (data == nullptr) continue;  // string arrays: not written here
+    VtpArray array;
+    array.name = data->GetName() != nullptr ? data->GetName() : "";
+    array.type = xml_type_name(data);
+    array.components = data->GetNumberOfComponents();
+    const vtkIdType tuples = data->GetNumberOfTuples();
+    array.values.reserve(static_cast<std::size_t>(tuples * array.components));
+    for (vtkIdType t = 0; t < tuples; ++t) {
+      for (int c = 0; c < array.components; ++c) array.values.push_back(data->GetComponent(t, c));
+    }
+    arrays.push_back(std::move(array));
+  }
+  return arrays;
+}
+
+const VtpArray* find_array(const std::vector<VtpArray>& arrays, const std::string& name) {
+  for (const VtpArray& array : arrays) {
+    if (array.name == name) return &array;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+VtkSeriesWriter::VtkSeriesWriter(std::string directory) : directory_(std::move(directory)) {
+  if (directory_.empty()) throw std::invalid_argument("VTK output: empty directory name");
+  std::error_code error;
+  fs::create_directories(directory_, error);
+  if (error || !fs::is_directory(directory_)) {
+    throw std::runtime_error(directory_ + ": cannot create VTK output directory" +
+                             (error ? ": " + error.message() : ""));
+  }
+}
+
+void VtkSeriesWriter::set_wall_extent(double side) {
+  if (!(side >= 0.0) || !std::isfinite(side)) {
+    throw std::invalid_argument("VTK output: wall extent must be finite and >= 0");
+  }
+  wall_extent_ = side;
+}
+
+bool VtkSeriesWriter::WallGeometry::same_as(const std::vector<PlaneWall>& other_walls,
+                                            const Domain& other_domain, double other_extent) const {
+  if (extent != other_extent || domain.min != other_domain.min || domain.max != other_domain.max ||
+      walls.size() != other_walls.size()) {
+    return false;
+  }
+  for (std::size_t w = 0; w < walls.size(); ++w) {
+    if (walls[w].point != other_walls[w].point || walls[w].normal != other_walls[w].normal ||
+        walls[w].material != other_walls[w].material) {
+      return false;
+    }
+  }
+  return true;
+}
+
+void VtkSeriesWriter::write_frame(double time, const Particles& particles,
+                                  const std::vector<ContactRecord>& contacts,
+                                  const std::vector<PlaneWall>& walls, const Domain& domain,
+                                  const std::vector<ScalarField>& scalars,
+                                  const std::vector<VectorField>& vectors) {
+  if (!std::isfinite(time)) throw std::invalid_argument("VTK output: time is not finite");
+  if (!times_.empty() && !(time > times_.back())) {
+    throw std::invalid_argument("VTK output: frame time " + format_time(time) +
+                                " is not after the previous frame's " + format_time(times_.back()));
+  }
+  check_inputs(particles, walls, scalars, vectors);
+  const double side = wall_extent_ > 0.0 ? wall_extent_ : domain.length().norm();
+  if (!walls.empty() && !(side > 0.0 && std::isfinite(side))) {
+    throw std::invalid_argument(
+        "VTK output: walls need a domain of positive size or a wall extent");
+  }
+
+  const std::size_t frame = times_.size();
+  const fs::path dir(directory_);
+  write_vtp(particle_data(particles, scalars, vectors),
+            (dir / frame_file("particles", frame)).string());
+  write_vtp(contact_data(contacts), (dir / frame_file("contacts", frame)).string());
+
+  std::optional<WallGeometry> walls_before = last_walls_;
+  std::string wall_file;
+  if (last_walls_ && last_walls_->same_as(walls, domain, wall_extent_)) {
+    wall_file = wall_files_.back();
+  } else {
+    wall_file = frame_file("walls", frame);
+    write_vtp(wall_data(walls, domain, side), (dir / wall_file).string());
+    last_walls_ = WallGeometry{walls, domain, wall_extent_};
+  }
+
+  times_.push_back(time);
+  wall_files_.push_back(wall_file);
+  try {
+    write_collections();
+  } catch (...) {
+    // Not listed, not counted: the next frame reuses this index and rewrites every collection.
+    times_.pop_back();
+    wall_files_.pop_back();
+    last_walls_ = std::move(walls_before);
+    throw;
+  }
+}
+
+void VtkSeriesWriter::write_collections() const {
+  const fs::path dir(directory_);
+  std::vector<std::string> particle_files, contact_files;
+  for (std::size_t frame = 0; frame < times_.size(); ++frame) {
+    particle_files.push_back(frame_file("particles", frame));
+    contact_files.push_back(frame_file("contacts", frame));
+  }
+  write_collection((dir / "particles.pvd").string(), times_, particle_files);
+  write_collection((dir / "contacts.pvd").string(), times_, contact_files);
+  write_collection((dir / "walls.pvd").string(), times_, wall_files_);
+}
+
+const VtpArray* VtpContents::point_array(const std::string& name) const {
+  return find_array(point_arrays, name);
+}
+
+const VtpArray* VtpContents::cell_array(const std::string& name) const {
+  return find_array(cell_arrays, name);
+}
+
+VtpContents read_vtp(const std::string& path) {
+  vtkNew<ErrorCollector> errors;
+  vtkNew<vtkXMLPolyDataReader> reader;
+  reader->AddObserver(vtkCommand::ErrorEvent, errors);
+  reader->GetExecutive()->AddObserver(vtkCommand::ErrorEvent, errors);
+  if (!fs::is_regular_file(path) || reader->CanReadFile(path.c_str()) == 0) {
+    throw std::runtime_error(path + ": not a readable VTK PolyData file");
+  }
+  reader->SetFileName(path.c_str());
+  reader->Update();
+  if (reader->GetErrorCode() != vtkErrorCode::NoError || !errors->message.empty()) {
+    throw std::runtime_error(path + ": cannot read VTK file" +
+                             (errors->message.empty() ? "" : ": " + errors->message));
+  }
+  vtkPolyData* data = reader->GetOutput();
+  VtpContents contents;
+  for (vtkIdType i = 0; i < data->GetNumberOfPoints(); ++i) {
+    Eigen::Vector3d point;
+    data->GetPoint(i, point.data());
+    contents.points.push_back(point);
+  }
+  vtkNew<vtkIdList> ids;
+  const auto read_cells = [&](vtkCellArray* cells) {
+    for (vtkIdType c = 0; c < cells->GetNumberOfCells(); ++c) {
+      cells->GetCellAtId(c, ids);
+      std::vector<std::int64_t>& cell = contents.cells.emplace_back();
+      for (vtkIdType k = 0; k < ids->GetNumberOfIds(); ++k) cell.push_back(ids->GetId(k));
+    }
+    return static_cast<std::size_t>(cells->GetNumberOfCells());
+  };
+  contents.verts = read_cells(data->GetVerts());
+  contents.lines = read_cells(data->GetLines());
+  contents.polys = read_cells(data->GetPolys());
+  contents.point_arrays = read_arrays(data->GetPointData());
+  contents.cell_arrays = read_arrays(data->GetCellData());
+  return contents;
+}
+
+}  // namespace bondem

@@ -1,0 +1,139 @@
+#pragma once
+/// @file vtk_output.hpp
+/// VTK XML output for ParaView: particle, contact and wall time series (.vtp frames, .pvd index).
+///
+/// Layout of an output directory after frames 0..N-1:
+///   particles_NNNNNN.vtp  one per frame (NNNNNN = frame index, zero padded to six digits)
+///   contacts_NNNNNN.vtp   one per frame
+///   walls_NNNNNN.vtp      only for frames whose wall geometry differs from the last one written
+///   particles.pvd, contacts.pvd, walls.pvd  collections with one DataSet per frame
+/// walls.pvd has an entry for every frame, pointing at the wall file current at that frame:
+/// ParaView's PVD reader shows, for a requested time, the first entry at or after it, so a sparse
+/// list would show a moved wall before it moved. Static walls therefore cost one file.
+///
+/// VTK types stay out of this header: VTK is a private dependency of bondem_core.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "geometry/domain.hpp"
+#include "geometry/walls.hpp"
+#include "solver/particles.hpp"
+
+namespace bondem {
+
+/// One contact or bond as a line between two particle centres (periodic images resolved by the
+/// caller: `second_position` is where j is seen from i).
+struct ContactRecord {
+  std::int64_t id_i = 0;                                      ///< stable id of the first particle
+  std::int64_t id_j = 0;                                      ///< stable id of the second particle
+  Eigen::Vector3d first_position = Eigen::Vector3d::Zero();   ///< centre of i [m]
+  Eigen::Vector3d second_position = Eigen::Vector3d::Zero();  ///< centre of j's image seen from i
+  double overlap = 0.0;                                       ///< [m]
+  double normal_force = 0.0;                                  ///< signed, as the law returns it [N]
+  bool bonded = false;                                        ///< on the adhesive branch
+};
+
+/// Writes a time series for ParaView into one directory (see the file comment for the layout).
+/// Files are binary appended, zlib compressed, and each appears whole or not at all (written to
+/// `<name>.tmp.<pid>` and renamed); the .pvd collections are rewritten after every frame, so a run
+/// that stops early still opens in ParaView.
+class VtkSeriesWriter {
+ public:
+  /// A per-particle scalar besides the fixed arrays; `values` has one entry per particle, in the
+  /// order of Particles, and must stay valid during write_frame().
+  struct ScalarField {
+    std::string name;
+    const std::vector<double>* values = nullptr;
+  };
+  /// A per-particle 3-vector besides the fixed arrays, as three component arrays (the SoA layout).
+  struct VectorField {
+    std::string name;
+    const std::vector<double>* x = nullptr;
+    const std::vector<double>* y = nullptr;
+    const std::vector<double>* z = nullptr;
+  };
+
+  /// Create @p directory (and missing parents). Throws std::runtime_error naming it on failure.
+  explicit VtkSeriesWriter(std::string directory);
+
+  VtkSeriesWriter(const VtkSeriesWriter&) = delete;  // two writers would clobber the .pvd files
+  VtkSeriesWriter& operator=(const VtkSeriesWriter&) = delete;
+  VtkSeriesWriter(VtkSeriesWriter&&) = default;
+  VtkSeriesWriter& operator=(VtkSeriesWriter&&) = default;
+  ~VtkSeriesWriter() = default;
+
+  /// Side of the square drawn for each wall before clipping to the domain box [m]; 0 (the
+  /// default) uses the domain diagonal, which makes every wall cover its whole cross-section.
+  void set_wall_extent(double side);
+
+  /// Write one frame at simulated time @p time, which must be finite and later than the previous
+  /// frame's (a .pvd with repeated times is ambiguous in ParaView).
+  ///
+  /// particles: points (Float64) with a vertex cell each; point arrays "id" (Int64), "radius",
+  ///   "velocity" (3 components), "force" (3), "material" (Int32), then every extra field.
+  /// contacts: one line per record, two points of its own each; cell arrays "overlap",
+  ///   "normal_force", "bonded" (UInt8), "id_i", "id_j" (Int64).
+  /// walls: one polygon per PlaneWall, a square centred at the projection of the domain centre
+  ///   onto the plane, clipped to the domain box (unclipped if the plane misses the box); box
+  ///   faces come out as exactly the domain's faces. Cell arrays "wall_index", "material" (Int32).
+  ///
+  /// Throws std::invalid_argument on bad input (before touching any file) and std::runtime_error
+  /// naming the file on a write failure; the frame is then not listed and no temporary remains.
+  void write_frame(double time, const Particles& particles,
+                   const std::vector<ContactRecord>& contacts, const std::vector<PlaneWall>& walls,
+                   const Domain& domain, const std::vector<ScalarField>& scalars = {},
+                   const std::vector<VectorField>& vectors = {});
+
+  /// Number of frames written.
+  std::size_t frames() const { return times_.size(); }
+  /// The output directory.
+  const std::string& directory() const { return directory_; }
+
+ private:
+  /// What a wall file was drawn from; a frame with the same geometry reuses that file.
+  struct WallGeometry {
+    std::vector<PlaneWall> walls;
+    Domain domain;
+    double extent = 0.0;
+    bool same_as(const std::vector<PlaneWall>& other_walls, const Domain& other_domain,
+                 double other_extent) const;
+  };
+
+  void write_collections() const;
+
+  std::string directory_;
+  double wall_extent_ = 0.0;
+  std::vector<double> times_;               ///< time of every frame written
+  std::vector<std::string> wall_files_;     ///< wall file of every frame written
+  std::optional<WallGeometry> last_walls_;  ///< geometry of the newest wall file
+};
+
+/// One data array read back from a .vtp file.
+struct VtpArray {
+  std::string name;
+  std::string type;            ///< VTK XML type name: "Float64", "Int64", "Int32", "UInt8", ...
+  int components = 1;          ///< values per tuple
+  std::vector<double> values;  ///< tuples one after the other (exact for integers below 2^53)
+};
+
+/// The content of a .vtp file, read with VTK's own reader (for tests and tools).
+struct VtpContents {
+  std::vector<Eigen::Vector3d> points;
+  std::vector<std::vector<std::int64_t>> cells;  ///< point ids: verts, then lines, then polygons
+  std::size_t verts = 0, lines = 0, polys = 0;   ///< cells of each kind
+  std::vector<VtpArray> point_arrays, cell_arrays;
+
+  /// The point array called @p name, or nullptr.
+  const VtpArray* point_array(const std::string& name) const;
+  /// The cell array called @p name, or nullptr.
+  const VtpArray* cell_array(const std::string& name) const;
+};
+
+/// Read a .vtp file with vtkXMLPolyDataReader. Throws std::runtime_error naming the file.
+VtpContents read_vtp(const std::string& path);
+
+}  // namespace bondem

@@ -1,0 +1,158 @@
+// Whole runs: restart equivalence byte for byte, interruption and resumption, refused
+// checkpoints, and blow-up detection.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "io/case_file.hpp"
+#include "io/checkpoint.hpp"
+#include "io/run.hpp"
+
+namespace bondem {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string slurp(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+fs::path fresh_directory(const std::string& name) {
+  const fs::path directory = fs::path(::testing::TempDir()) / ("bondem_run_io_" + name);
+  fs::remove_all(directory);
+  return directory;
+}
+
+/// The CI packing case shortened; 2500 particles so that the parallel loops are used.
+Case short_packing(double end_time) {
+  return load_case(BONDEM_CASES_DIR "/powder_bed_packing_ci.yaml",
+                   {"insert.0.count=2500", "domain.max.2=0.06", "walls.0.max.2=0.06",
+                    "insert.0.region.max.2=0.055", "time.end=" + std::to_string(end_time),
+                    "output.history_interval=0.0015"});
+}
+
+RunResult run(const Case& c, const fs::path& directory, const std::string& restart = "",
+              const volatile std::sig_atomic_t* stop = nullptr) {
+  RunOptions options;
+  options.output_directory = directory.string();
+  options.quiet = true;
+  options.restart_path = restart;
+  options.stop_requested = stop;
+  std::ostringstream log;
+  return run_case(c, options, log);
+}
+
+TEST(Restart, ContinuingACheckpointGivesTheSameBytes) {
+  const fs::path whole = fresh_directory("whole");
+  const fs::path half = fresh_directory("half");
+  run(short_packing(0.012), whole);
+  run(short_packing(0.006), half);
+  // The end time is not part of the fingerprint: a checkpoint can be continued further.
+  run(short_packing(0.012), half, (half / "checkpoint.bin").string());
+  EXPECT_TRUE(slurp(whole / "final_state.csv") == slurp(half / "final_state.csv"));
+  EXPECT_TRUE(slurp(whole / "history.csv") == slurp(half / "history.csv"));
+}
+
+TEST(Restart, InterruptedRunResumesToTheSameResult) {
+  const fs::path whole = fresh_directory("uninterrupted");
+  const fs::path stopped = fresh_directory("interrupted");
+  const Case c = short_packing(0.01);
+  run(c, whole);
+  volatile std::sig_atomic_t stop = 1;  // as if SIGINT arrived during the first step
+  EXPECT_THROW(run(c, stopped, "", &stop), RunInterrupted);
+  ASSERT_TRUE(fs::exists(stopped / "checkpoint.bin"));
+  ASSERT_TRUE(fs::exists(stopped / "final_state.csv"));  // outputs of the state reached
+  EXPECT_FALSE(slurp(whole / "final_state.csv") == slurp(stopped / "final_state.csv"));
+  run(c, stopped, (stopped / "checkpoint.bin").string());
+  EXPECT_TRUE(slurp(whole / "final_state.csv") == slurp(stopped / "final_state.csv"));
+}
+
+class BadCheckpoint : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    // ctest runs these cases concurrently: one directory each.
+    directory_ = fresh_directory(::testing::UnitTest::GetInstance()->current_test_info()->name());
+    run(short_packing(0.0003), directory_);
+    good_ = slurp(directory_ / "checkpoint.bin");
+    ASSERT_GT(good_.size(), 1000u);
+  }
+  /// The error of restarting from @p bytes (or from @p c's mismatch), "" if accepted.
+  std::string error_with(const std::string& bytes, const Case& c) {
+    const fs::path path = directory_ / "tampered.bin";
+    std::ofstream(path, std::ios::binary) << bytes;
+    try {
+      run(c, directory_ / "resumed", path.string());
+    } catch (const CaseError& e) {
+      return e.what();
+    }
+    return "";
+  }
+  fs::path directory_;
+  std::string good_;
+};
+
+TEST_F(BadCheckpoint, IntactCheckpointIsAccepted) {
+  EXPECT_EQ(error_with(good_, short_packing(0.0006)), "");
+}
+
+TEST_F(BadCheckpoint, FlippedByteIsRefused) {
+  std::string bytes = good_;
+  bytes[bytes.size() / 2] = static_cast<char>(bytes[bytes.size() / 2] ^ 0x10);
+  EXPECT_NE(error_with(bytes, short_packing(0.0006)).find("checksum mismatch"), std::string::npos);
+}
+
+TEST_F(BadCheckpoint, TruncatedIsRefused) {
+  EXPECT_NE(error_with(good_.substr(0, good_.size() - 9), short_packing(0.0006)).find("truncated"),
+            std::string::npos);
+}
+
+TEST_F(BadCheckpoint, OtherVersionIsRefused) {
+  std::string bytes = good_;
+  bytes[8] = static_cast<char>(kCheckpointVersion + 1);
+  EXPECT_NE(error_with(bytes, short_packing(0.0006)).find("format version"), std::string::npos);
+}
+
+TEST_F(BadCheckpoint, NotACheckpointIsRefused) {
+  EXPECT_NE(error_with("id,x,y,z\n", short_packing(0.0006)).find("not a bondem checkpoint"),
+            std::string::npos);
+}
+
+TEST_F(BadCheckpoint, OtherCaseIsRefused) {
+  Case other = short_packing(0.0006);
+  other.materials[0].density = 2600.0;
+  EXPECT_NE(error_with(good_, other).find("different case"), std::string::npos);
+}
+
+TEST(BlowUp, TooLargeTimeStepIsCaughtWithItsCause) {
+  const fs::path directory = fresh_directory("blow_up");
+  Case c = short_packing(0.05);
+  const double limit = c.time_step;
+  c.time_step = 40.0 * limit;  // contacts resolved in about two steps
+  RunOptions options;
+  options.output_directory = directory.string();
+  options.quiet = true;
+  options.enforce_time_step_limit = false;
+  std::ostringstream log;
+  try {
+    run_case(c, options, log);
+    FAIL() << "the run should have been stopped";
+  } catch (const BlowUpError& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("step "), std::string::npos) << message;
+    EXPECT_NE(message.find("particle id"), std::string::npos) << message;
+    EXPECT_NE(message.find("time.step"), std::string::npos) << message;
+  }
+  EXPECT_TRUE(fs::exists(directory / "last_good_state.csv"));
+  EXPECT_FALSE(fs::exists(directory / "final_state.csv"));
+  // And without the override the run does not even start.
+  options.enforce_time_step_limit = true;
+  EXPECT_THROW(run_case(c, options, log), CaseError);
+}
+
+}  // namespace
+}  // namespace bondem
