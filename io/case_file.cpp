@@ -594,12 +594,16 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
 
   if (const YAML::Node output = root["output"]) {
     reader.expect_map(output, "output");
-    reader.check_keys(output, "output", {"directory", "history_interval", "checkpoint_interval"});
+    reader.check_keys(output, "output",
+                      {"directory", "history_interval", "checkpoint_interval", "vtk_interval"});
     const YAML::Node directory = reader.require(output, "output", "directory");
     c.output_directory = reader.text(directory, "output.directory");
     if (c.output_directory.empty()) reader.fail(directory, "output.directory", "is empty");
     if (const YAML::Node interval = output["history_interval"]) {
       c.history_interval = reader.positive(interval, "output.history_interval");
+    }
+    if (const YAML::Node interval = output["vtk_interval"]) {
+      c.vtk_interval = reader.positive(interval, "output.vtk_interval");
     }
     if (const YAML::Node interval = output["checkpoint_interval"]) {
       c.checkpoint_interval = reader.positive(interval, "output.checkpoint_interval");

@@ -17,6 +17,7 @@
 #include "io/atomic_file.hpp"
 #include "io/case_file.hpp"
 #include "io/checkpoint.hpp"
+#include "io/vtk_output.hpp"
 #include "solver/calculator.hpp"
 #include "solver/scene.hpp"
 #include "solver/stepper.hpp"
@@ -100,6 +101,50 @@ class Progress {
   Clock::time_point start_, shown_;
 };
 
+/// Writes VTK frames of a run: particles (with coordination and bond count) and contacts.
+class VtkObserver {
+ public:
+  explicit VtkObserver(const std::filesystem::path& directory) : writer_(directory.string()) {}
+
+  void resume(double time) { writer_.resume(time); }
+
+  void write(const Scene& scene, const Stepper& stepper) {
+    const Particles& p = scene.particles;
+    const NeighborList& list = stepper.neighbors();
+    const PairForces& forces = stepper.pair_forces();
+    coordination_.assign(p.size(), 0.0);
+    bond_count_.assign(p.size(), 0.0);
+    contacts_.clear();
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      for (std::uint32_t k = list.row_begin[i]; k < list.row_begin[i + 1]; ++k) {
+        const std::size_t j = list.second[k];
+        const Eigen::Vector3d& shift = list.shifts[list.image[k]];
+        const Eigen::Vector3d first(p.x[i], p.y[i], p.z[i]);
+        const Eigen::Vector3d second =
+            Eigen::Vector3d(p.x[j], p.y[j], p.z[j]) + shift;  // the image seen from i
+        const Eigen::Vector3d d = second - first;
+        const double overlap = p.radius[i] + p.radius[j] - d.norm();
+        if (overlap <= 0.0) continue;
+        const Eigen::Vector3d force(forces.fx[k], forces.fy[k], forces.fz[k]);
+        const bool bonded = forces.bonded[k] != 0;
+        contacts_.push_back(
+            {p.id[i], p.id[j], first, second, overlap, force.dot(d.normalized()), bonded});
+        coordination_[i] += 1.0;
+        coordination_[j] += 1.0;
+        bond_count_[i] += bonded ? 1.0 : 0.0;
+        bond_count_[j] += bonded ? 1.0 : 0.0;
+      }
+    }
+    writer_.write_frame(stepper.time(), p, contacts_, scene.walls, scene.domain,
+                        {{"coordination", &coordination_}, {"bond_count", &bond_count_}});
+  }
+
+ private:
+  VtkSeriesWriter writer_;
+  std::vector<double> coordination_, bond_count_;
+  std::vector<ContactRecord> contacts_;
+};
+
 }  // namespace
 
 RunResult run_case(const Case& description, const RunOptions& options, std::ostream& log) {
@@ -150,6 +195,12 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
   };
   const std::int64_t history_every =
       every(description.history_interval, description.end_time / 100.0);
+  const std::int64_t vtk_every = every(description.vtk_interval, 2.0 * description.end_time);
+  std::optional<VtkObserver> vtk;
+  if (description.vtk_interval > 0.0) {
+    vtk.emplace(directory);
+    if (stepper.step_count() > 0) vtk->resume(stepper.time());
+  }
   const std::int64_t checkpoint_every =
       every(description.checkpoint_interval, 2.0 * description.end_time);
 
@@ -167,7 +218,10 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
     write_checkpoint(checkpoint_path,
                      {fingerprint, scene.particles, stepper.save_state(), history.str()});
   };
-  if (stepper.step_count() == 0) record();
+  if (stepper.step_count() == 0) {
+    record();
+    if (vtk) vtk->write(scene, stepper);
+  }
 
   // The last state known to be sound, for a blow-up report.
   Particles last_good = scene.particles;
@@ -198,10 +252,12 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
       record();
       last_good = scene.particles;
     }
+    if (vtk && (s % vtk_every == 0 || s == steps)) vtk->write(scene, stepper);
     if (s % checkpoint_every == 0 && s != steps) checkpoint();
     progress.update(s, stepper.time());
     if (options.stop_requested != nullptr && *options.stop_requested != 0 && s != steps) {
       progress.finish();
+      if (vtk && s % vtk_every != 0) vtk->write(scene, stepper);
       checkpoint();
       write_history();
       write_final_state(scene.particles, (directory / "final_state.csv").string());

@@ -27,6 +27,8 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <regex>
 #include <set>
 #include <stdexcept>
 #include <system_error>
@@ -495,6 +497,22 @@ void VtkSeriesWriter::write_frame(double time, const Particles& particles,
     wall_files_.pop_back();
     last_walls_ = std::move(walls_before);
     throw;
+  }
+}
+
+void VtkSeriesWriter::resume(double time) {
+  times_.clear();
+  wall_files_.clear();
+  last_walls_.reset();  // the next frame draws its walls afresh
+  std::ifstream in(fs::path(directory_) / "walls.pvd");
+  static const std::regex entry(R"re(<DataSet timestep="([^"]+)"[^>]*file="([^"]+)")re");
+  for (std::string line; std::getline(in, line);) {
+    std::smatch match;
+    if (!std::regex_search(line, match, entry)) continue;
+    const double frame_time = std::stod(match[1].str());
+    if (frame_time > time) break;
+    times_.push_back(frame_time);
+    wall_files_.push_back(match[2].str());
   }
 }
 

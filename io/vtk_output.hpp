@@ -88,6 +88,10 @@ class VtkSeriesWriter {
                    const Domain& domain, const std::vector<ScalarField>& scalars = {},
                    const std::vector<VectorField>& vectors = {});
 
+  /// Continue the series a stopped run left in this directory: keep its frames at times up to
+  /// @p time (read from walls.pvd), number the next frame after them. No series: nothing kept.
+  void resume(double time);
+
   /// Number of frames written.
   std::size_t frames() const { return times_.size(); }
   /// The output directory.

@@ -58,6 +58,7 @@ struct Case {
   double max_overlap_fraction = 0.25;  ///< overlap / smaller radius that stops a run (blow-up)
   std::string output_directory = "output";
   double checkpoint_interval = 0.0;  ///< [s] between checkpoints; 0: only at the end
+  double vtk_interval = 0.0;         ///< [s] between VTK frames; 0: no VTK output
   double history_interval = 0.0;     ///< [s] between history rows; 0 picks end / 100
   /// Region whose particle centres define the reported bed solid fraction and coordination.
   std::optional<Box> analysis_region;

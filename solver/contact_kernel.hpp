@@ -30,10 +30,12 @@ struct ContactSummary {
 /// Per-pair forces on the first particle of each pair, one slot per neighbor-list entry.
 struct PairForces {
   std::vector<double> fx, fy, fz;
+  std::vector<std::uint8_t> bonded;  ///< 1 where the pair is on the adhesive branch
   void resize(std::size_t pairs) {
     fx.resize(pairs);
     fy.resize(pairs);
     fz.resize(pairs);
+    bonded.resize(pairs);
   }
 };
 
@@ -60,6 +62,7 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
       const double reach = p.radius[i] + p.radius[j];
       if (distance_sq >= reach * reach) {
         out.fx[k] = out.fy[k] = out.fz[k] = 0.0;
+        out.bonded[k] = 0;
         continue;
       }
       const double distance = std::sqrt(distance_sq);
@@ -78,6 +81,7 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
       out.fx[k] = f.force * nx;
       out.fy[k] = f.force * ny;
       out.fz[k] = f.force * nz;
+      out.bonded[k] = f.bonded ? 1 : 0;
       ++contacts;
       bonds += f.bonded ? 1 : 0;
       max_overlap = std::max(max_overlap, overlap);

@@ -56,8 +56,10 @@ class Stepper {
   std::int64_t step_count() const { return step_count_; }
   /// Contacts seen by the last force evaluation.
   const ContactSummary& contacts() const { return contacts_; }
-  /// The current neighbor list (for analysis and tests).
+  /// The current neighbor list (for analysis and output).
   const NeighborList& neighbors() const { return list_; }
+  /// Per-pair forces of the last evaluation, indexed like the neighbor list.
+  const PairForces& pair_forces() const { return pair_forces_; }
   /// Force each wall exerts on the particles now, in scene.walls order (summed in index order).
   std::vector<Eigen::Vector3d> wall_forces() const;
   /// Kinetic energy of translation, summed in index order [J].

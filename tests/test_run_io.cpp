@@ -2,6 +2,7 @@
 // checkpoints, and blow-up detection.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -9,6 +10,7 @@
 #include "io/case_file.hpp"
 #include "io/checkpoint.hpp"
 #include "io/run.hpp"
+#include "io/vtk_output.hpp"
 
 namespace bondem {
 namespace {
@@ -70,6 +72,31 @@ TEST(Restart, InterruptedRunResumesToTheSameResult) {
   EXPECT_FALSE(slurp(whole / "final_state.csv") == slurp(stopped / "final_state.csv"));
   run(c, stopped, (stopped / "checkpoint.bin").string());
   EXPECT_TRUE(slurp(whole / "final_state.csv") == slurp(stopped / "final_state.csv"));
+}
+
+TEST(Restart, VtkSeriesContinuesAcrossARestart) {
+  const fs::path whole = fresh_directory("vtk_whole");
+  const fs::path resumed = fresh_directory("vtk_resumed");
+  Case c = short_packing(0.006);
+  c.vtk_interval = 0.0015;
+  run(c, whole);
+  volatile std::sig_atomic_t stop = 1;
+  EXPECT_THROW(run(c, resumed, "", &stop), RunInterrupted);
+  run(c, resumed, (resumed / "checkpoint.bin").string());
+  // Frames at 0, 1.5, 3, 4.5, 6 ms in both; the resumed series also keeps the frame written at
+  // the interruption (step 1), which lies between the first two.
+  const std::string series = slurp(whole / "particles.pvd");
+  EXPECT_EQ(std::count(series.begin(), series.end(), '\n'),
+            5 + 5);  // five frames and five lines of XML frame
+  const VtpContents last = read_vtp((whole / "particles_000004.vtp").string());
+  EXPECT_EQ(last.points.size(), c.particles.size());
+  ASSERT_NE(last.point_array("coordination"), nullptr);
+  ASSERT_NE(last.point_array("bond_count"), nullptr);
+  const std::string resumed_series = slurp(resumed / "particles.pvd");
+  EXPECT_EQ(std::count(resumed_series.begin(), resumed_series.end(), '\n'), 6 + 5);
+  // The last frames hold the same particles at the same time.
+  const VtpContents resumed_last = read_vtp((resumed / "particles_000005.vtp").string());
+  EXPECT_EQ(resumed_last.points, last.points);
 }
 
 class BadCheckpoint : public ::testing::Test {
