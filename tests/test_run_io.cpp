@@ -87,7 +87,7 @@ TEST(Restart, VtkSeriesContinuesAcrossARestart) {
   // the interruption (step 1), which lies between the first two.
   const std::string series = slurp(whole / "particles.pvd");
   EXPECT_EQ(std::count(series.begin(), series.end(), '\n'),
-            5 + 5);  // five frames and five lines of XML frame
+            5 + 5);  // five frames, five lines of XML
   const VtpContents last = read_vtp((whole / "particles_000004.vtp").string());
   EXPECT_EQ(last.points.size(), c.particles.size());
   ASSERT_NE(last.point_array("coordination"), nullptr);
