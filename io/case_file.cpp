@@ -491,7 +491,13 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
 
   const YAML::Node contact = reader.require(root, "", "contact");
   reader.expect_map(contact, "contact");
-  reader.check_keys(contact, "contact", {"damping_ratio"});
+  reader.check_keys(contact, "contact", {"damping_ratio", "friction", "rolling_friction"});
+  if (const YAML::Node mu = contact["friction"]) {
+    c.friction = reader.non_negative(mu, "contact.friction");
+  }
+  if (const YAML::Node mu_r = contact["rolling_friction"]) {
+    c.rolling_friction = reader.non_negative(mu_r, "contact.rolling_friction");
+  }
   c.contact_damping = reader.non_negative(reader.require(contact, "contact", "damping_ratio"),
                                           "contact.damping_ratio");
 

@@ -10,6 +10,14 @@
 namespace bondem {
 namespace {
 
+/// Every double-valued particle field, in file order.
+constexpr std::vector<double> Particles::*kParticleFields[] = {
+    &Particles::x,  &Particles::y,      &Particles::z,          &Particles::vx,
+    &Particles::vy, &Particles::vz,     &Particles::fx,         &Particles::fy,
+    &Particles::fz, &Particles::radius, &Particles::mass,       &Particles::inv_mass,
+    &Particles::wx, &Particles::wy,     &Particles::wz,         &Particles::tx,
+    &Particles::ty, &Particles::tz,     &Particles::inv_inertia};
+
 constexpr char kMagic[8] = {'B', 'O', 'N', 'D', 'E', 'M', 'C', 'K'};
 
 /// FNV-1a, 64 bit: simple, dependency-free, and enough to catch truncation and bit rot.
@@ -69,6 +77,7 @@ class Reader {
     offset_ += size;
     return text;
   }
+  void get_raw(void* out, std::size_t size) { take(out, size); }
   bool at_end() const { return offset_ == bytes_.size(); }
   [[noreturn]] void fail(const std::string& what) const {
     throw CheckpointError(path_ + ": corrupt checkpoint: " + what);
@@ -93,11 +102,12 @@ std::uint64_t case_fingerprint(const Case& c) {
   for (const Material& m : c.materials) {
     text << m.name << ' ' << m.density << ' ' << m.youngs_modulus << ' ' << m.poisson_ratio << ';';
   }
-  text << c.contact_damping << ';' << c.bond.alpha << ' ' << static_cast<int>(c.bond.input) << ' '
-       << c.bond.stiffness << ' ' << c.bond.equilibrium_overlap << ' ' << c.bond.damping_ratio
-       << ' ' << static_cast<int>(c.bond.criterion) << ';' << c.time_step << ';'
-       << c.gravity.transpose() << ';' << c.particles.size() << ';' << c.skin << ' '
-       << c.reorder_interval << ' ' << c.max_overlap_fraction << ';';
+  text << c.contact_damping << ' ' << c.friction << ' ' << c.rolling_friction << ';' << c.bond.alpha
+       << ' ' << static_cast<int>(c.bond.input) << ' ' << c.bond.stiffness << ' '
+       << c.bond.equilibrium_overlap << ' ' << c.bond.damping_ratio << ' '
+       << static_cast<int>(c.bond.criterion) << ';' << c.time_step << ';' << c.gravity.transpose()
+       << ';' << c.particles.size() << ';' << c.skin << ' ' << c.reorder_interval << ' '
+       << c.max_overlap_fraction << ';';
   if (c.domain) {
     text << c.domain->min.transpose() << ' ' << c.domain->max.transpose() << ' '
          << c.domain->periodic[0] << c.domain->periodic[1] << c.domain->periodic[2] << ';';
@@ -125,10 +135,11 @@ void write_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
   payload.put(static_cast<std::uint64_t>(p.size()));
   payload.put(p.id);
   payload.put(p.material);
-  for (const auto* field : {&p.x, &p.y, &p.z, &p.vx, &p.vy, &p.vz, &p.fx, &p.fy, &p.fz, &p.radius,
-                            &p.mass, &p.inv_mass, &s.list.x0, &s.list.y0, &s.list.z0}) {
-    payload.put(*field);
-  }
+  for (const auto field : kParticleFields) payload.put(p.*field);
+  for (const auto* field : {&s.list.x0, &s.list.y0, &s.list.z0}) payload.put(*field);
+  payload.put(static_cast<std::int32_t>(p.walls));
+  payload.put(p.wall_slip);
+  payload.put(s.slips);
   payload.put(checkpoint.history);
 
   AtomicFile file(path, std::ios::binary);
@@ -192,10 +203,15 @@ Checkpoint read_checkpoint(const std::string& path) {
   Particles& p = c.particles;
   r.get(p.id, n);
   r.get(p.material, n);
-  for (auto* field : {&p.x, &p.y, &p.z, &p.vx, &p.vy, &p.vz, &p.fx, &p.fy, &p.fz, &p.radius,
-                      &p.mass, &p.inv_mass, &s.list.x0, &s.list.y0, &s.list.z0}) {
-    r.get(*field, n);
-  }
+  for (const auto field : kParticleFields) r.get(p.*field, n);
+  for (auto* field : {&s.list.x0, &s.list.y0, &s.list.z0}) r.get(*field, n);
+  p.walls = r.get<std::int32_t>();
+  if (p.walls < 0) r.fail("negative wall count");
+  r.get(p.wall_slip, n * static_cast<std::uint64_t>(3 * p.walls));
+  const auto slip_count = r.get<std::uint64_t>();
+  if (slip_count > bytes.size()) r.fail("implausible number of tangential springs");
+  s.slips.resize(slip_count);
+  r.get_raw(s.slips.data(), slip_count * sizeof(SlipRecord));
   c.history = r.get_text();
   if (!r.at_end()) r.fail("trailing bytes");
   return c;

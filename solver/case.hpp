@@ -45,7 +45,9 @@ struct ParticleSpec {
 struct Case {
   std::string source;  ///< file the case came from, for messages
   std::vector<Material> materials;
-  double contact_damping = 0.0;  ///< xi_con
+  double contact_damping = 0.0;   ///< xi_con
+  double friction = 0.0;          ///< Coulomb sliding friction mu (pairs and walls)
+  double rolling_friction = 0.0;  ///< rolling resistance mu_r (pairs and walls)
   BondModel bond;
   double time_step = 0.0;  ///< [s]
   double end_time = 0.0;   ///< [s]

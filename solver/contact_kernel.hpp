@@ -6,6 +6,7 @@
 /// its own slot; pass 2 sums, for each particle, its own row then its transposed row, in list
 /// order. Every particle's sum therefore has one fixed order whatever the thread count.
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -14,7 +15,9 @@
 #include "solver/bond_law.hpp"
 #include "solver/neighbor_list.hpp"
 #include "solver/pair.hpp"
+#include "solver/rolling_law.hpp"
 #include "solver/scene.hpp"
+#include "solver/tangential_law.hpp"
 
 namespace bondem {
 
@@ -30,20 +33,35 @@ struct ContactSummary {
 /// Per-pair forces on the first particle of each pair, one slot per neighbor-list entry.
 struct PairForces {
   std::vector<double> fx, fy, fz;
-  std::vector<std::uint8_t> bonded;  ///< 1 where the pair is on the adhesive branch
-  void resize(std::size_t pairs) {
-    fx.resize(pairs);
-    fy.resize(pairs);
-    fz.resize(pairs);
+  std::vector<std::uint8_t> bonded;      ///< 1 where the pair is on the adhesive branch
+  std::vector<double> ti_x, ti_y, ti_z;  ///< torque on i (with friction)
+  std::vector<double> tj_x, tj_y, tj_z;  ///< torque on j (with friction)
+  void resize(std::size_t pairs, bool torques) {
+    for (std::vector<double>* f : {&fx, &fy, &fz}) f->resize(pairs);
     bonded.resize(pairs);
+    for (std::vector<double>* t : {&ti_x, &ti_y, &ti_z, &tj_x, &tj_y, &tj_z}) {
+      t->resize(torques ? pairs : 0);
+    }
+  }
+};
+
+/// Tangential spring elongation of every candidate pair, indexed like the neighbor list. It is
+/// carried across list rebuilds by particle ids (see Stepper), so reordering never loses it.
+struct PairHistory {
+  std::vector<double> sx, sy, sz;
+  void resize(std::size_t pairs) {
+    for (std::vector<double>* s : {&sx, &sy, &sz}) s->assign(pairs, 0.0);
   }
 };
 
 /// Pass 1: the bond law for every candidate pair of @p list (force on i stored; j gets minus).
 /// @param criterion_met callable (i, j) -> bool, the bonding criterion of the pair.
-template <class Adhesion, class Criterion>
+/// With kFriction the pair also gets the tangential law (history in @p history) and rolling
+/// resistance, and torques are stored; without it that code is compiled out.
+template <bool kFriction, class Adhesion, class Criterion>
 ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const NeighborList& list,
-                                   Adhesion adhesion, Criterion criterion_met, PairForces& out) {
+                                   Adhesion adhesion, Criterion criterion_met, PairForces& out,
+                                   PairHistory& history) {
   const std::size_t n = p.size();
   std::size_t contacts = 0;
   std::size_t bonds = 0;
@@ -63,6 +81,10 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
       if (distance_sq >= reach * reach) {
         out.fx[k] = out.fy[k] = out.fz[k] = 0.0;
         out.bonded[k] = 0;
+        if constexpr (kFriction) {
+          out.ti_x[k] = out.ti_y[k] = out.ti_z[k] = out.tj_x[k] = out.tj_y[k] = out.tj_z[k] = 0.0;
+          history.sx[k] = history.sy[k] = history.sz[k] = 0.0;  // contact lost: spring released
+        }
         continue;
       }
       const double distance = std::sqrt(distance_sq);
@@ -74,14 +96,55 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
       // delta-dot = -(v_j - v_i) . n_ij: positive while approaching.
       const double overlap_rate =
           -((p.vx[j] - p.vx[i]) * nx + (p.vy[j] - p.vy[i]) * ny + (p.vz[j] - p.vz[i]) * nz);
-      const BondPair law = make_bond_pair(scene.pair(p.material[i], p.material[j]),
-                                          effective_radius(p.radius[i], p.radius[j]),
-                                          effective_mass(p.mass[i], p.mass[j]));
+      const PairCoefficients& coefficients = scene.pair(p.material[i], p.material[j]);
+      const double r_star = effective_radius(p.radius[i], p.radius[j]);
+      const double m_star = effective_mass(p.mass[i], p.mass[j]);
+      const BondPair law = make_bond_pair(coefficients, r_star, m_star);
       const NormalForce f = normal_force(law, adhesion, overlap, overlap_rate, criterion_met(i, j));
       out.fx[k] = f.force * nx;
       out.fy[k] = f.force * ny;
       out.fz[k] = f.force * nz;
       out.bonded[k] = f.bonded ? 1 : 0;
+      if constexpr (kFriction) {
+        const Eigen::Vector3d normal(nx, ny, nz);
+        // Levers from each centre to the contact point, the middle of the overlap.
+        const Eigen::Vector3d lever_i = (p.radius[i] - 0.5 * overlap) * normal;
+        const Eigen::Vector3d lever_j = -(p.radius[j] - 0.5 * overlap) * normal;
+        const Eigen::Vector3d spin_i(p.wx[i], p.wy[i], p.wz[i]);
+        const Eigen::Vector3d spin_j(p.wx[j], p.wy[j], p.wz[j]);
+        const Eigen::Vector3d contact_velocity =
+            Eigen::Vector3d(p.vx[j], p.vy[j], p.vz[j]) + spin_j.cross(lever_j) -
+            Eigen::Vector3d(p.vx[i], p.vy[i], p.vz[i]) - spin_i.cross(lever_i);
+        const Eigen::Vector3d sliding = contact_velocity - contact_velocity.dot(normal) * normal;
+        const double k_t = mindlin_stiffness(coefficients.shear_modulus, r_star, overlap);
+        const double d_t = 2.0 * coefficients.contact_damping * std::sqrt(m_star * k_t);
+        // A bond presses the surfaces together with its Hertz part even where the net normal
+        // force vanishes (at delta_eq): that load, not the net force, limits its friction.
+        const double load =
+            f.bonded ? law.hertz_stiffness * overlap * std::sqrt(overlap) : std::max(0.0, -f.force);
+        const TangentialForce t = tangential_force(
+            k_t, d_t, coefficients.friction, load, normal,
+            Eigen::Vector3d(history.sx[k], history.sy[k], history.sz[k]), sliding, scene.time_step);
+        history.sx[k] = t.slip.x();
+        history.sy[k] = t.slip.y();
+        history.sz[k] = t.slip.z();
+        out.fx[k] += t.force.x();
+        out.fy[k] += t.force.y();
+        out.fz[k] += t.force.z();
+        const double inertia_i = 1.0 / p.inv_inertia[i];
+        const double inertia_j = 1.0 / p.inv_inertia[j];
+        const Eigen::Vector3d rolling =
+            rolling_torque(coefficients.rolling_friction, r_star, load, spin_i - spin_j,
+                           inertia_i * inertia_j / (inertia_i + inertia_j), scene.time_step);
+        const Eigen::Vector3d torque_i = lever_i.cross(t.force) + rolling;
+        const Eigen::Vector3d torque_j = lever_j.cross(-t.force) - rolling;
+        out.ti_x[k] = torque_i.x();
+        out.ti_y[k] = torque_i.y();
+        out.ti_z[k] = torque_i.z();
+        out.tj_x[k] = torque_j.x();
+        out.tj_y[k] = torque_j.y();
+        out.tj_z[k] = torque_j.z();
+      }
       ++contacts;
       bonds += f.bonded ? 1 : 0;
       max_overlap = std::max(max_overlap, overlap);
@@ -91,15 +154,23 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
   return {contacts, bonds, 0, max_overlap, max_fraction};
 }
 
-/// Damped Hertz force of @p wall on particle i (zero when apart); returns the overlap.
-inline double wall_force(const Particles& p, const Scene& scene, const PlaneWall& wall,
-                         std::size_t i, Eigen::Vector3d& force) {
+/// Contact of particle i with wall number @p w: damped Hertz (r* = r_i, m* = m_i: a wall is a
+/// sphere of infinite radius and mass) and, with kFriction, the tangential law against the wall
+/// (history in p.wall_slip) and rolling resistance. Returns the overlap (<= 0: no contact, zero
+/// force and torque, history released).
+template <bool kFriction>
+double wall_contact(Particles& p, const Scene& scene, std::size_t w, std::size_t i,
+                    Eigen::Vector3d& force, Eigen::Vector3d& torque) {
+  const PlaneWall& wall = scene.walls[w];
   const double overlap = p.radius[i] - distance_to(wall, p.x[i], p.y[i], p.z[i]);
+  double* slip =
+      kFriction ? &p.wall_slip[(i * static_cast<std::size_t>(p.walls) + w) * 3] : nullptr;
+  torque.setZero();
   if (overlap <= 0.0) {
     force.setZero();
+    if constexpr (kFriction) slip[0] = slip[1] = slip[2] = 0.0;
     return overlap;
   }
-  // The wall is a sphere of infinite radius and mass: r* = r_i, m* = m_i.
   const PairCoefficients& c = scene.pair(p.material[i], wall.material);
   const BondPair law{hertz_stiffness(c.effective_modulus, p.radius[i]),
                      p.mass[i],
@@ -113,13 +184,37 @@ inline double wall_force(const Particles& p, const Scene& scene, const PlaneWall
   // n_ij points from the particle into the wall, i.e. along -normal.
   const double f_n = hertz_contact_force(law, overlap, overlap_rate);
   force = -f_n * wall.normal;
+  if constexpr (kFriction) {
+    const Eigen::Vector3d normal = -wall.normal;
+    const Eigen::Vector3d lever = (p.radius[i] - overlap) * normal;  // to the wall surface
+    const Eigen::Vector3d spin(p.wx[i], p.wy[i], p.wz[i]);
+    const Eigen::Vector3d contact_velocity =
+        -(Eigen::Vector3d(p.vx[i], p.vy[i], p.vz[i]) + spin.cross(lever));
+    const Eigen::Vector3d sliding = contact_velocity - contact_velocity.dot(normal) * normal;
+    const double k_t = mindlin_stiffness(c.shear_modulus, p.radius[i], overlap);
+    const double d_t = 2.0 * c.contact_damping * std::sqrt(p.mass[i] * k_t);
+    const TangentialForce t =
+        tangential_force(k_t, d_t, c.friction, -f_n, normal,
+                         Eigen::Vector3d(slip[0], slip[1], slip[2]), sliding, scene.time_step);
+    slip[0] = t.slip.x();
+    slip[1] = t.slip.y();
+    slip[2] = t.slip.z();
+    force += t.force;
+    torque = lever.cross(t.force) + rolling_torque(c.rolling_friction, p.radius[i], -f_n, spin,
+                                                   1.0 / p.inv_inertia[i], scene.time_step);
+  }
   return overlap;
 }
 
-/// Pass 2: total force per particle = gravity + own pairs - transposed pairs + walls.
-inline ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborList& list,
-                                    const PairForces& pair_forces) {
+/// Pass 2: total force (and, with kFriction, torque) per particle = gravity + own pairs -
+/// transposed pairs + walls. Each particle's force from each wall goes to @p wall_forces
+/// (3 values per particle and wall) for wall-load reports.
+template <bool kFriction>
+ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborList& list,
+                             const PairForces& pair_forces, std::vector<double>& wall_forces) {
   const std::size_t n = p.size();
+  const std::size_t walls = scene.walls.size();
+  wall_forces.resize(n * walls * 3);
   const Eigen::Vector3d g = scene.gravity;
   std::size_t wall_contacts = 0;
   double max_overlap = 0.0;
@@ -127,34 +222,43 @@ inline ContactSummary gather_forces(Particles& p, const Scene& scene, const Neig
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) \
     reduction(+ : wall_contacts) reduction(max : max_overlap, max_fraction)
   for (std::size_t i = 0; i < n; ++i) {
-    double fx = p.mass[i] * g.x();
-    double fy = p.mass[i] * g.y();
-    double fz = p.mass[i] * g.z();
+    Eigen::Vector3d f = p.mass[i] * g;
+    Eigen::Vector3d tau = Eigen::Vector3d::Zero();
     for (std::uint32_t k = list.row_begin[i]; k < list.row_begin[i + 1]; ++k) {
-      fx += pair_forces.fx[k];
-      fy += pair_forces.fy[k];
-      fz += pair_forces.fz[k];
+      f += Eigen::Vector3d(pair_forces.fx[k], pair_forces.fy[k], pair_forces.fz[k]);
+      if constexpr (kFriction) {
+        tau += Eigen::Vector3d(pair_forces.ti_x[k], pair_forces.ti_y[k], pair_forces.ti_z[k]);
+      }
     }
     for (std::uint32_t c = list.column_begin[i]; c < list.column_begin[i + 1]; ++c) {
       const std::uint32_t k = list.column_pair[c];
-      fx -= pair_forces.fx[k];
-      fy -= pair_forces.fy[k];
-      fz -= pair_forces.fz[k];
+      f -= Eigen::Vector3d(pair_forces.fx[k], pair_forces.fy[k], pair_forces.fz[k]);
+      if constexpr (kFriction) {
+        tau += Eigen::Vector3d(pair_forces.tj_x[k], pair_forces.tj_y[k], pair_forces.tj_z[k]);
+      }
     }
-    for (const PlaneWall& wall : scene.walls) {
-      Eigen::Vector3d f;
-      const double overlap = wall_force(p, scene, wall, i, f);
+    for (std::size_t w = 0; w < walls; ++w) {
+      Eigen::Vector3d wall_f, wall_tau;
+      const double overlap = wall_contact<kFriction>(p, scene, w, i, wall_f, wall_tau);
+      double* stored = &wall_forces[(i * walls + w) * 3];
+      stored[0] = wall_f.x();
+      stored[1] = wall_f.y();
+      stored[2] = wall_f.z();
       if (overlap <= 0.0) continue;
-      fx += f.x();
-      fy += f.y();
-      fz += f.z();
+      f += wall_f;
+      tau += wall_tau;
       ++wall_contacts;
       max_overlap = std::max(max_overlap, overlap);
       max_fraction = std::max(max_fraction, overlap / p.radius[i]);
     }
-    p.fx[i] = fx;
-    p.fy[i] = fy;
-    p.fz[i] = fz;
+    p.fx[i] = f.x();
+    p.fy[i] = f.y();
+    p.fz[i] = f.z();
+    if constexpr (kFriction) {
+      p.tx[i] = tau.x();
+      p.ty[i] = tau.y();
+      p.tz[i] = tau.z();
+    }
   }
   return {0, 0, wall_contacts, max_overlap, max_fraction};
 }

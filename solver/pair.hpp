@@ -43,7 +43,17 @@ struct PairCoefficients {
   // Derived once so that contacts need no std::pow when alpha = 1 or delta_eq is fixed.
   double equilibrium_power = 0.0;  ///< delta_eq^(3/2 - alpha), when input == kEquilibriumOverlap
   double critical_ratio = 0.0;     ///< delta_crit / delta_eq = (2 alpha / 3)^(1 / (3/2 - alpha))
+  double shear_modulus = 0.0;      ///< G* = 1 / ((2 - nu_i)/G_i + (2 - nu_j)/G_j), Mindlin [Pa]
+  double friction = 0.0;           ///< Coulomb sliding friction mu
+  double rolling_friction = 0.0;   ///< rolling resistance mu_r (dimensionless, times r*)
 };
+
+/// Effective shear modulus G* of Mindlin's tangential stiffness.
+constexpr double effective_shear_modulus(double e_i, double nu_i, double e_j, double nu_j) {
+  const double g_i = e_i / (2.0 * (1.0 + nu_i));
+  const double g_j = e_j / (2.0 * (1.0 + nu_j));
+  return 1.0 / ((2.0 - nu_i) / g_i + (2.0 - nu_j) / g_j);
+}
 
 /// Coefficients of a material pair with modulus E*, damping ratios and the case's bond input.
 /// @param strength k_adh when input == kStiffness, delta_eq when input == kEquilibriumOverlap.

@@ -2,6 +2,7 @@
 /// @file particles.hpp
 /// Particle storage as a structure of arrays: one contiguous array per field.
 
+#include <algorithm>
 #include <cstdint>
 #include <initializer_list>
 #include <vector>
@@ -21,6 +22,18 @@ struct Particles {
   std::vector<double> vx, vy, vz;
   std::vector<double> fx, fy, fz;
   std::vector<double> radius, mass, inv_mass;
+  std::vector<double> wx, wy, wz;   ///< angular velocity [rad/s]
+  std::vector<double> tx, ty, tz;   ///< torque [N m]
+  std::vector<double> inv_inertia;  ///< 1 / (2/5 m r^2) of a solid sphere
+  /// Tangential spring elongation against each wall, 3 values per wall, wall_count() per particle.
+  std::vector<double> wall_slip;
+  int walls = 0;  ///< walls with a slot in wall_slip
+
+  /// Give every particle a zeroed tangential-history slot for each of @p wall_count walls.
+  void set_wall_count(int wall_count) {
+    walls = wall_count;
+    wall_slip.assign(size() * static_cast<std::size_t>(3 * wall_count), 0.0);
+  }
 
   /// Number of particles.
   std::size_t size() const { return id.size(); }
@@ -42,6 +55,9 @@ struct Particles {
     radius.push_back(particle_radius);
     mass.push_back(particle_mass);
     inv_mass.push_back(1.0 / particle_mass);
+    for (std::vector<double>* field : {&wx, &wy, &wz, &tx, &ty, &tz}) field->push_back(0.0);
+    inv_inertia.push_back(1.0 / (0.4 * particle_mass * particle_radius * particle_radius));
+    wall_slip.resize(wall_slip.size() + static_cast<std::size_t>(3 * walls), 0.0);
     return id.size() - 1;
   }
 
@@ -49,10 +65,17 @@ struct Particles {
   void permute(const std::vector<std::uint32_t>& order) {
     permute_field(id, order);
     permute_field(material, order);
-    for (std::vector<double>* field :
-         {&x, &y, &z, &vx, &vy, &vz, &fx, &fy, &fz, &radius, &mass, &inv_mass}) {
+    for (std::vector<double>* field : {&x, &y, &z, &vx, &vy, &vz, &fx, &fy, &fz, &radius, &mass,
+                                       &inv_mass, &wx, &wy, &wz, &tx, &ty, &tz, &inv_inertia}) {
       permute_field(*field, order);
     }
+    const auto stride = static_cast<std::size_t>(3 * walls);
+    std::vector<double> slip(wall_slip.size());
+    for (std::size_t k = 0; k < order.size(); ++k) {
+      std::copy_n(wall_slip.begin() + static_cast<std::ptrdiff_t>(order[k] * stride), stride,
+                  slip.begin() + static_cast<std::ptrdiff_t>(k * stride));
+    }
+    wall_slip.swap(slip);
   }
 
  private:

@@ -16,8 +16,13 @@ PairCoefficients Case::pair_coefficients(int a, int b) const {
                                           m_b.poisson_ratio);
   const double strength =
       bond.input == AdhesionInput::kStiffness ? bond.stiffness : bond.equilibrium_overlap;
-  return make_pair_coefficients(e_star, contact_damping, bond.damping_ratio, bond.alpha, bond.input,
-                                strength);
+  PairCoefficients c = make_pair_coefficients(e_star, contact_damping, bond.damping_ratio,
+                                              bond.alpha, bond.input, strength);
+  c.shear_modulus = effective_shear_modulus(m_a.youngs_modulus, m_a.poisson_ratio,
+                                            m_b.youngs_modulus, m_b.poisson_ratio);
+  c.friction = friction;
+  c.rolling_friction = rolling_friction;
+  return c;
 }
 
 Scene build_scene(const Case& description) {
@@ -53,6 +58,8 @@ Scene build_scene(const Case& description) {
     scene.domain.min = lo.array() - pad;
     scene.domain.max = hi.array() + pad;
   }
+  scene.friction = description.friction > 0.0 || description.rolling_friction > 0.0;
+  scene.particles.set_wall_count(static_cast<int>(scene.walls.size()));
   std::int64_t next_id = 0;
   for (const ParticleSpec& spec : description.particles) {
     const double density = description.materials[static_cast<std::size_t>(spec.material)].density;

@@ -26,6 +26,7 @@ struct Scene {
   std::vector<PlaneWall> walls;  ///< static planes (a box container is six)
   double skin = 0.0;             ///< Verlet skin [m]
   int reorder_interval = 20;     ///< sort particles by cell every this many list builds (0: never)
+  bool friction = false;         ///< tangential law, rolling resistance and rotation are on
   double max_overlap_fraction = 0.25;  ///< overlap / smaller radius beyond which a run stops
 
   /// Coefficients of material pair (a, b).

@@ -1,5 +1,6 @@
 #include "solver/stepper.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -23,39 +24,91 @@ Stepper::Stepper(Scene& scene, const StepperState& restored, PairFlag pair_flag)
   // Forces come with the particles: they were evaluated with the half-step velocities of the
   // interrupted step, which a fresh evaluation could not reproduce.
   list_.restore(scene_.particles, scene_.domain, scene_.skin, restored.list);
-  pair_forces_.resize(list_.pair_count());
+  pair_forces_.resize(list_.pair_count(), scene_.friction);
+  apply_slips(restored.slips);
   contacts_ = restored.contacts;
   time_ = restored.time;
   step_count_ = restored.step;
 }
 
-template <class Adhesion>
+template <bool kFriction, class Adhesion>
 ContactSummary Stepper::dispatch_criterion(Adhesion adhesion) {
   const Particles& p = scene_.particles;
   switch (scene_.criterion) {
     case BondCriterion::kAlways:
-      return compute_pair_forces(
-          p, scene_, list_, adhesion, [](std::size_t, std::size_t) { return true; }, pair_forces_);
+      return compute_pair_forces<kFriction>(
+          p, scene_, list_, adhesion, [](std::size_t, std::size_t) { return true; }, pair_forces_,
+          history_);
     case BondCriterion::kNever:
-      return compute_pair_forces(
-          p, scene_, list_, adhesion, [](std::size_t, std::size_t) { return false; }, pair_forces_);
+      return compute_pair_forces<kFriction>(
+          p, scene_, list_, adhesion, [](std::size_t, std::size_t) { return false; }, pair_forces_,
+          history_);
     case BondCriterion::kPairFlag:
-      return compute_pair_forces(
+      return compute_pair_forces<kFriction>(
           p, scene_, list_, adhesion,
-          [&](std::size_t i, std::size_t j) { return pair_flag_(p.id[i], p.id[j]); }, pair_forces_);
+          [&](std::size_t i, std::size_t j) { return pair_flag_(p.id[i], p.id[j]); }, pair_forces_,
+          history_);
   }
   return {};
 }
 
 void Stepper::compute_forces() {
-  pair_forces_.resize(list_.pair_count());
-  ContactSummary pairs = scene_.alpha == 1.0 ? dispatch_criterion(LinearAdhesion{})
-                                             : dispatch_criterion(GeneralAdhesion{scene_.alpha});
-  const ContactSummary walls = gather_forces(scene_.particles, scene_, list_, pair_forces_);
+  pair_forces_.resize(list_.pair_count(), scene_.friction);
+  if (history_.sx.size() != list_.pair_count()) history_.resize(list_.pair_count());
+  ContactSummary pairs;
+  ContactSummary walls;
+  if (scene_.friction) {
+    pairs = scene_.alpha == 1.0 ? dispatch_criterion<true>(LinearAdhesion{})
+                                : dispatch_criterion<true>(GeneralAdhesion{scene_.alpha});
+    walls = gather_forces<true>(scene_.particles, scene_, list_, pair_forces_, wall_forces_);
+  } else {
+    pairs = scene_.alpha == 1.0 ? dispatch_criterion<false>(LinearAdhesion{})
+                                : dispatch_criterion<false>(GeneralAdhesion{scene_.alpha});
+    walls = gather_forces<false>(scene_.particles, scene_, list_, pair_forces_, wall_forces_);
+  }
   pairs.wall_contacts = walls.wall_contacts;
   pairs.max_overlap = std::max(pairs.max_overlap, walls.max_overlap);
   pairs.max_overlap_fraction = std::max(pairs.max_overlap_fraction, walls.max_overlap_fraction);
   contacts_ = pairs;
+}
+
+std::vector<SlipRecord> Stepper::collect_slips() const {
+  std::vector<SlipRecord> slips;
+  if (!scene_.friction) return slips;
+  const Particles& p = scene_.particles;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    for (std::uint32_t k = list_.row_begin[i]; k < list_.row_begin[i + 1]; ++k) {
+      if (history_.sx[k] == 0.0 && history_.sy[k] == 0.0 && history_.sz[k] == 0.0) continue;
+      slips.push_back(
+          {p.id[i], p.id[list_.second[k]], history_.sx[k], history_.sy[k], history_.sz[k]});
+    }
+  }
+  return slips;
+}
+
+void Stepper::apply_slips(std::vector<SlipRecord> slips) {
+  history_.resize(list_.pair_count());
+  if (slips.empty()) return;
+  // Key each spring by its pair of ids, smaller first; the elongation belongs to the first
+  // particle's side, so it changes sign when the list now sees the pair the other way round.
+  const auto key = [](std::int64_t a, std::int64_t b) { return std::minmax(a, b); };
+  std::sort(slips.begin(), slips.end(), [&](const SlipRecord& l, const SlipRecord& r) {
+    return key(l.first_id, l.second_id) < key(r.first_id, r.second_id);
+  });
+  const Particles& p = scene_.particles;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    for (std::uint32_t k = list_.row_begin[i]; k < list_.row_begin[i + 1]; ++k) {
+      const auto wanted = key(p.id[i], p.id[list_.second[k]]);
+      const auto found = std::lower_bound(
+          slips.begin(), slips.end(), wanted,
+          [&](const SlipRecord& r, const auto& w) { return key(r.first_id, r.second_id) < w; });
+      if (found == slips.end() || key(found->first_id, found->second_id) != wanted) continue;
+      const double sign = found->first_id == p.id[i] ? 1.0 : -1.0;
+      history_.sx[k] = sign * found->sx;
+      history_.sy[k] = sign * found->sy;
+      history_.sz[k] = sign * found->sz;
+    }
+  }
 }
 
 void Stepper::step() {
@@ -73,15 +126,19 @@ void Stepper::step() {
     p.y[i] += dt * p.vy[i];
     p.z[i] += dt * p.vz[i];
   }
+  if (scene_.friction) kick_spin(half_dt);
   // Two particles moving toward each other close the gap by twice the largest displacement:
   // rebuild once that displacement exceeds half the skin.
   const double half_skin = 0.5 * scene_.skin;
   if (list_.max_displacement_sq(p) > half_skin * half_skin) {
     const bool reorder =
         scene_.reorder_interval > 0 && (list_.builds % scene_.reorder_interval) == 0;
+    std::vector<SlipRecord> slips = collect_slips();
     list_.build(p, scene_.domain, scene_.skin, reorder);
+    apply_slips(std::move(slips));
   }
   compute_forces();
+  if (scene_.friction) kick_spin(half_dt);
   bool finite = true;
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) reduction(&& : finite)
   for (std::size_t i = 0; i < n; ++i) {
@@ -94,6 +151,18 @@ void Stepper::step() {
   time_ = static_cast<double>(++step_count_) * dt;
   if (!finite || contacts_.max_overlap_fraction > scene_.max_overlap_fraction) {
     throw BlowUpError(diagnose_blow_up(finite));
+  }
+}
+
+void Stepper::kick_spin(double half_dt) {
+  Particles& p = scene_.particles;
+  const std::size_t n = p.size();
+#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles)
+  for (std::size_t i = 0; i < n; ++i) {
+    const double kick = half_dt * p.inv_inertia[i];
+    p.wx[i] += kick * p.tx[i];
+    p.wy[i] += kick * p.ty[i];
+    p.wz[i] += kick * p.tz[i];
   }
 }
 
@@ -144,16 +213,17 @@ StepperState Stepper::save_state() const {
   state.step = step_count_;
   state.contacts = contacts_;
   list_.save(state.list);
+  state.slips = collect_slips();
   return state;
 }
 
 std::vector<Eigen::Vector3d> Stepper::wall_forces() const {
-  std::vector<Eigen::Vector3d> totals(scene_.walls.size(), Eigen::Vector3d::Zero());
-  const Particles& p = scene_.particles;
-  for (std::size_t w = 0; w < scene_.walls.size(); ++w) {
-    for (std::size_t i = 0; i < p.size(); ++i) {
-      Eigen::Vector3d f;
-      if (wall_force(p, scene_, scene_.walls[w], i, f) > 0.0) totals[w] -= f;
+  const std::size_t walls = scene_.walls.size();
+  std::vector<Eigen::Vector3d> totals(walls, Eigen::Vector3d::Zero());
+  for (std::size_t i = 0; i < scene_.particles.size(); ++i) {
+    for (std::size_t w = 0; w < walls; ++w) {
+      const double* f = &wall_forces_[(i * walls + w) * 3];
+      totals[w] -= Eigen::Vector3d(f[0], f[1], f[2]);  // reaction on the wall
     }
   }
   return totals;

@@ -20,12 +20,19 @@ class BlowUpError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// A tangential spring of a pair, keyed by ids; the elongation is seen from the first particle.
+struct SlipRecord {
+  std::int64_t first_id, second_id;
+  double sx, sy, sz;
+};
+
 /// Everything besides the particle arrays that a restarted stepper needs to continue bit for bit.
 struct StepperState {
   double time = 0.0;
   std::int64_t step = 0;
   ContactSummary contacts;
   NeighborListState list;
+  std::vector<SlipRecord> slips;  ///< tangential springs of the pairs in contact
 };
 
 /// Advances a scene in time. Owns the neighbor list and per-pair force slots; the scene owns the
@@ -60,21 +67,29 @@ class Stepper {
   const NeighborList& neighbors() const { return list_; }
   /// Per-pair forces of the last evaluation, indexed like the neighbor list.
   const PairForces& pair_forces() const { return pair_forces_; }
-  /// Force each wall exerts on the particles now, in scene.walls order (summed in index order).
+  /// Tangential spring elongations, indexed like the neighbor list.
+  const PairHistory& pair_history() const { return history_; }
+  /// Load on each wall (minus the force it exerts on the particles) from the last force
+  /// evaluation, in scene.walls order, summed in index order.
   std::vector<Eigen::Vector3d> wall_forces() const;
   /// Kinetic energy of translation, summed in index order [J].
   double kinetic_energy() const;
 
  private:
   void compute_forces();
+  void kick_spin(double half_dt);
+  std::vector<SlipRecord> collect_slips() const;
+  void apply_slips(std::vector<SlipRecord> slips);
   std::string diagnose_blow_up(bool finite) const;
-  template <class Adhesion>
+  template <bool kFriction, class Adhesion>
   ContactSummary dispatch_criterion(Adhesion adhesion);
 
   Scene& scene_;
   PairFlag pair_flag_;
   NeighborList list_;
   PairForces pair_forces_;
+  PairHistory history_;
+  std::vector<double> wall_forces_;  ///< per particle and wall, from the last evaluation
   ContactSummary contacts_;
   double time_ = 0.0;
   std::int64_t step_count_ = 0;

@@ -1,0 +1,52 @@
+#pragma once
+/// @file tangential_law.hpp
+/// Tangential contact: a Mindlin no-slip spring with history, a dashpot and the Coulomb limit.
+/// Pure functions: no I/O, no allocation, no state beyond what the caller passes in.
+
+#include <Eigen/Core>
+#include <cmath>
+
+namespace bondem {
+
+/// Result of the tangential law for one contact.
+struct TangentialForce {
+  Eigen::Vector3d force;  ///< on particle i [N]
+  Eigen::Vector3d slip;   ///< updated spring elongation to store for the next step [m]
+  bool sliding;           ///< the Coulomb limit was reached
+};
+
+/// Mindlin no-slip stiffness k_t = 8 G* a with contact radius a = sqrt(r* delta) [N/m].
+inline double mindlin_stiffness(double shear_modulus_star, double r_star, double overlap) {
+  return 8.0 * shear_modulus_star * std::sqrt(r_star * overlap);
+}
+
+/// Cundall-Strack tangential spring with history.
+/// @param normal        unit n_ij (from i to j)
+/// @param slip          elongation stored last step (any orientation; projected here)
+/// @param sliding_velocity tangential velocity of j relative to i at the contact point
+/// @param load          normal load the Coulomb limit is proportional to (>= 0) [N]
+/// The stored elongation is first rotated into the current tangent plane (keeping its length, so
+/// a rolling pair does not lose its spring), then advanced by v_t dt. The trial force
+/// k_t s + d_t v_t drags i along with j; above mu * load it is scaled back and the spring set to
+/// the elongation that carries the limit force.
+inline TangentialForce tangential_force(double stiffness, double damping, double friction,
+                                        double load, const Eigen::Vector3d& normal,
+                                        const Eigen::Vector3d& slip,
+                                        const Eigen::Vector3d& sliding_velocity, double dt) {
+  Eigen::Vector3d s = slip - slip.dot(normal) * normal;
+  const double before = slip.norm();
+  const double after = s.norm();
+  if (after > 0.0) s *= before / after;
+  s += sliding_velocity * dt;
+  Eigen::Vector3d force = stiffness * s + damping * sliding_velocity;
+  const double limit = friction * load;
+  const double magnitude = force.norm();
+  if (magnitude > limit) {
+    force *= magnitude > 0.0 ? limit / magnitude : 0.0;
+    s = stiffness > 0.0 ? Eigen::Vector3d(force / stiffness) : Eigen::Vector3d::Zero();
+    return {force, s, true};
+  }
+  return {force, s, false};
+}
+
+}  // namespace bondem
