@@ -73,7 +73,8 @@ struct LayerMetrics {
   /// Particles whose centre lies in the layer box's x-y footprint (bounds included) at or above
   /// substrate_z (no upper limit).
   std::size_t particles = 0;
-  std::size_t columns = 0;          ///< surface-grid columns (0 if no particle takes part)
+  /// Surface-grid columns (0 if grid_spacing is 0 and no particle takes part).
+  std::size_t columns = 0;
   std::size_t covered_columns = 0;  ///< columns with a particle above them
 };
 
@@ -86,8 +87,10 @@ struct LayerMetrics {
 /// Particles whose centre lies above substrate_z + 3 layer_height (the heap pushed ahead of the
 /// blade, particles in flight) are ignored for the surface; they still count in the solid
 /// fraction if they reach into the layer box. Columns with no particle are empty: they count in
-/// empty_fraction only, not in the height statistics. Particles are bucketed by a uniform x-y cell
-/// grid, so the cost is linear in particles and columns.
+/// empty_fraction only, not in the height statistics. Each particle is splatted onto the columns
+/// under its disc, one band of rows at a time (particles bucketed by band), so the cost is the
+/// columns plus the discs' column counts and the memory is bounded (~2 MB of heights); 10^5
+/// particles on 4 x 10^6 columns take ~0.25 s on one core.
 /// Outputs are bit-identical for any particle order (sums run in id order or column order).
 /// @throws std::invalid_argument on a degenerate or non-finite region, bins < 1, a negative
 ///         grid spacing, or a surface grid of more than 10^9 columns.
@@ -98,7 +101,7 @@ LayerMetrics measure_layer(const Particles& p, const LayerRegion& region);
 /// cross-section area (circle-rectangle intersection, closed form) is integrated in z by
 /// Gauss-Legendre quadrature on pieces split where the section's shape changes, with a cosine
 /// change of variable that removes the (z - z_k)^{3/2} kinks at the split points: the relative
-/// error is at the level of rounding (tests check 1e-10).
+/// error is at the level of rounding (measured ~1e-15; tests check 1e-12 of the sphere volume).
 double sphere_box_volume(double cx, double cy, double cz, double r, const Box& box);
 
 }  // namespace bondem

@@ -91,7 +91,11 @@ void Stepper::apply_slips(std::vector<SlipRecord> slips) {
   if (slips.empty()) return;
   // Key each spring by its pair of ids, smaller first; the elongation belongs to the first
   // particle's side, so it changes sign when the list now sees the pair the other way round.
-  const auto key = [](std::int64_t a, std::int64_t b) { return std::minmax(a, b); };
+  // By value: std::minmax returns references, which would dangle here.
+  const auto key = [](std::int64_t a, std::int64_t b) {
+    return a < b ? std::pair<std::int64_t, std::int64_t>(a, b)
+                 : std::pair<std::int64_t, std::int64_t>(b, a);
+  };
   std::sort(slips.begin(), slips.end(), [&](const SlipRecord& l, const SlipRecord& r) {
     return key(l.first_id, l.second_id) < key(r.first_id, r.second_id);
   });
