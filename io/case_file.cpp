@@ -245,6 +245,54 @@ Domain read_domain(const Reader& reader, const YAML::Node& node, const std::stri
   return d;
 }
 
+/// A moving tool: `blade` {min, max} or `roller` {point, axis, radius, spin}, with `motion`.
+Body read_tool(const Reader& reader, const Case& c, const YAML::Node& node, const std::string& path,
+               bool roller) {
+  Body tool;
+  if (roller) {
+    reader.check_keys(node, path,
+                      {"type", "point", "axis", "radius", "spin", "material", "motion", "name"});
+    tool.shape = Body::Shape::kCylinder;
+    tool.center = reader.vector3(reader.require(node, path, "point"), path + ".point");
+    if (const YAML::Node axis = node["axis"]) {
+      tool.axis = reader.vector3(axis, path + ".axis");
+      if (!(tool.axis.norm() > 0.0)) reader.fail(axis, path + ".axis", "must not be zero");
+      tool.axis.normalize();
+    }
+    tool.radius = reader.positive(reader.require(node, path, "radius"), path + ".radius");
+    if (const YAML::Node spin = node["spin"]) tool.spin = reader.number(spin, path + ".spin");
+  } else {
+    reader.check_keys(node, path, {"type", "min", "max", "material", "motion", "name"});
+    tool.shape = Body::Shape::kBox;
+    const Eigen::Vector3d lo = reader.vector3(reader.require(node, path, "min"), path + ".min");
+    const YAML::Node max = reader.require(node, path, "max");
+    const Eigen::Vector3d hi = reader.vector3(max, path + ".max");
+    if (!(hi.array() > lo.array()).all()) reader.fail(max, path + ".max", "must exceed min");
+    tool.center = 0.5 * (lo + hi);
+    tool.half_size = 0.5 * (hi - lo);
+  }
+  tool.material = material_index(reader, c, node, path);
+  tool.name = node["name"] ? reader.text(node["name"], path + ".name") : path;
+  if (const YAML::Node motion = node["motion"]) {
+    if (!motion.IsSequence()) reader.fail(motion, path + ".motion", "expected a list of keys");
+    for (std::size_t k = 0; k < motion.size(); ++k) {
+      const std::string key_path = Reader::join(path + ".motion", k);
+      reader.expect_map(motion[k], key_path);
+      reader.check_keys(motion[k], key_path, {"time", "velocity"});
+      MotionKey key;
+      const YAML::Node time = reader.require(motion[k], key_path, "time");
+      key.time = reader.non_negative(time, key_path + ".time");
+      if (!tool.motion.empty() && key.time <= tool.motion.back().time) {
+        reader.fail(time, key_path + ".time", "motion keys must be in increasing time");
+      }
+      key.velocity =
+          reader.vector3(reader.require(motion[k], key_path, "velocity"), key_path + ".velocity");
+      tool.motion.push_back(key);
+    }
+  }
+  return tool;
+}
+
 void read_walls(const Reader& reader, Case& c, const YAML::Node& walls) {
   if (!walls.IsSequence()) reader.fail(walls, "walls", "expected a list of walls");
   for (std::size_t k = 0; k < walls.size(); ++k) {
@@ -291,8 +339,11 @@ void read_walls(const Reader& reader, Case& c, const YAML::Node& walls) {
            box_walls(lo, hi, material_index(reader, c, body, path), open, name)) {
         c.walls.push_back(wall);
       }
+    } else if (kind == "blade" || kind == "roller") {
+      c.bodies.push_back(read_tool(reader, c, body, path, kind == "roller"));
     } else {
-      reader.fail(type, path + ".type", "unknown wall type '" + kind + "' (plane or box)");
+      reader.fail(type, path + ".type",
+                  "unknown wall type '" + kind + "' (plane, box, blade or roller)");
     }
   }
 }
@@ -361,6 +412,11 @@ void check_inside(const Reader& reader, const Case& c, const ParticleSpec& p,
   for (const PlaneWall& wall : c.walls) {
     if (distance_to(wall, p.position.x(), p.position.y(), p.position.z()) < p.radius) {
       reader.fail(node, path, "overlaps wall '" + wall.name + "'");
+    }
+  }
+  for (const Body& tool : c.bodies) {
+    if (nearest_surface(tool, p.position).gap < p.radius) {
+      reader.fail(node, path, "overlaps '" + tool.name + "'");
     }
   }
 }

@@ -115,6 +115,11 @@ std::uint64_t case_fingerprint(const Case& c) {
   for (const PlaneWall& w : c.walls) {
     text << w.point.transpose() << ' ' << w.normal.transpose() << ' ' << w.material << ';';
   }
+  for (const Body& b : c.bodies) {
+    text << static_cast<int>(b.shape) << ' ' << b.center.transpose() << ' '
+         << b.half_size.transpose() << ' ' << b.axis.transpose() << ' ' << b.radius << ' ' << b.spin
+         << ' ' << b.material << ' ' << b.motion.size() << ';';
+  }
   const std::string canonical = text.str();
   return fnv1a(canonical.data(), canonical.size());
 }
@@ -140,6 +145,7 @@ void write_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
   payload.put(static_cast<std::int32_t>(p.walls));
   payload.put(p.wall_slip);
   payload.put(s.slips);
+  payload.put(s.bodies);
   payload.put(checkpoint.history);
 
   AtomicFile file(path, std::ios::binary);
@@ -212,6 +218,10 @@ Checkpoint read_checkpoint(const std::string& path) {
   if (slip_count > bytes.size()) r.fail("implausible number of tangential springs");
   s.slips.resize(slip_count);
   r.get_raw(s.slips.data(), slip_count * sizeof(SlipRecord));
+  const auto body_values = r.get<std::uint64_t>();
+  if (body_values > bytes.size()) r.fail("implausible number of body values");
+  s.bodies.resize(body_values);
+  r.get_raw(s.bodies.data(), body_values * sizeof(double));
   c.history = r.get_text();
   if (!r.at_end()) r.fail("trailing bytes");
   return c;

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "geometry/bodies.hpp"
 #include "geometry/box.hpp"
 #include "geometry/domain.hpp"
 #include "geometry/walls.hpp"
@@ -55,6 +56,7 @@ struct Case {
   std::vector<ParticleSpec> particles;  ///< explicit ones first, then each insertion in order
   std::optional<Domain> domain;  ///< absent: the particles' bounding box, padded, not periodic
   std::vector<PlaneWall> walls;
+  std::vector<Body> bodies;   ///< moving tools: blades and rollers
   double skin = 0.0;          ///< Verlet skin [m]; 0 picks 0.2 x the largest radius
   int reorder_interval = 20;  ///< neighbor-list builds between reorderings by cell (0: never)
   double max_overlap_fraction = 0.25;  ///< overlap / smaller radius that stops a run (blow-up)

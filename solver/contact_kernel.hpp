@@ -11,6 +11,7 @@
 #include <cmath>
 #include <vector>
 
+#include "geometry/bodies.hpp"
 #include "geometry/walls.hpp"
 #include "solver/bond_law.hpp"
 #include "solver/neighbor_list.hpp"
@@ -154,24 +155,27 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
   return {contacts, bonds, 0, max_overlap, max_fraction};
 }
 
-/// Contact of particle i with wall number @p w: damped Hertz (r* = r_i, m* = m_i: a wall is a
-/// sphere of infinite radius and mass) and, with kFriction, the tangential law against the wall
-/// (history in p.wall_slip) and rolling resistance. Returns the overlap (<= 0: no contact, zero
-/// force and torque, history released).
+/// Contact of particle i with a surface of material @p material: damped Hertz (r* = r_i,
+/// m* = m_i: a wall or tool is a sphere of infinite radius and mass) and, with kFriction, the
+/// tangential law (history in p.wall_slip slot @p slot) and rolling resistance.
+/// @param gap centre-to-surface distance; @param normal unit, from the surface to the centre;
+/// @param surface_velocity velocity of the surface material at the contact.
+/// Returns the overlap (<= 0: no contact, zero force and torque, history released).
 template <bool kFriction>
-double wall_contact(Particles& p, const Scene& scene, std::size_t w, std::size_t i,
-                    Eigen::Vector3d& force, Eigen::Vector3d& torque) {
-  const PlaneWall& wall = scene.walls[w];
-  const double overlap = p.radius[i] - distance_to(wall, p.x[i], p.y[i], p.z[i]);
+double surface_contact(Particles& p, const Scene& scene, int material, std::size_t slot,
+                       std::size_t i, double gap, const Eigen::Vector3d& normal,
+                       const Eigen::Vector3d& surface_velocity, Eigen::Vector3d& force,
+                       Eigen::Vector3d& torque) {
+  const double overlap = p.radius[i] - gap;
   double* slip =
-      kFriction ? &p.wall_slip[(i * static_cast<std::size_t>(p.walls) + w) * 3] : nullptr;
+      kFriction ? &p.wall_slip[(i * static_cast<std::size_t>(p.walls) + slot) * 3] : nullptr;
   torque.setZero();
   if (overlap <= 0.0) {
     force.setZero();
     if constexpr (kFriction) slip[0] = slip[1] = slip[2] = 0.0;
     return overlap;
   }
-  const PairCoefficients& c = scene.pair(p.material[i], wall.material);
+  const PairCoefficients& c = scene.pair(p.material[i], material);
   const BondPair law{hertz_stiffness(c.effective_modulus, p.radius[i]),
                      p.mass[i],
                      0.0,
@@ -179,22 +183,21 @@ double wall_contact(Particles& p, const Scene& scene, std::size_t w, std::size_t
                      0.0,
                      c.contact_damping,
                      0.0};
-  const double overlap_rate =
-      -(p.vx[i] * wall.normal.x() + p.vy[i] * wall.normal.y() + p.vz[i] * wall.normal.z());
-  // n_ij points from the particle into the wall, i.e. along -normal.
+  const Eigen::Vector3d velocity(p.vx[i], p.vy[i], p.vz[i]);
+  const double overlap_rate = -(velocity - surface_velocity).dot(normal);
+  // n_ij points from the particle into the surface, i.e. along -normal.
   const double f_n = hertz_contact_force(law, overlap, overlap_rate);
-  force = -f_n * wall.normal;
+  force = -f_n * normal;
   if constexpr (kFriction) {
-    const Eigen::Vector3d normal = -wall.normal;
-    const Eigen::Vector3d lever = (p.radius[i] - overlap) * normal;  // to the wall surface
+    const Eigen::Vector3d n_ij = -normal;
+    const Eigen::Vector3d lever = (p.radius[i] - overlap) * n_ij;  // to the surface
     const Eigen::Vector3d spin(p.wx[i], p.wy[i], p.wz[i]);
-    const Eigen::Vector3d contact_velocity =
-        -(Eigen::Vector3d(p.vx[i], p.vy[i], p.vz[i]) + spin.cross(lever));
-    const Eigen::Vector3d sliding = contact_velocity - contact_velocity.dot(normal) * normal;
+    const Eigen::Vector3d contact_velocity = surface_velocity - (velocity + spin.cross(lever));
+    const Eigen::Vector3d sliding = contact_velocity - contact_velocity.dot(n_ij) * n_ij;
     const double k_t = mindlin_stiffness(c.shear_modulus, p.radius[i], overlap);
     const double d_t = 2.0 * c.contact_damping * std::sqrt(p.mass[i] * k_t);
     const TangentialForce t =
-        tangential_force(k_t, d_t, c.friction, -f_n, normal,
+        tangential_force(k_t, d_t, c.friction, -f_n, n_ij,
                          Eigen::Vector3d(slip[0], slip[1], slip[2]), sliding, scene.time_step);
     slip[0] = t.slip.x();
     slip[1] = t.slip.y();
@@ -206,6 +209,24 @@ double wall_contact(Particles& p, const Scene& scene, std::size_t w, std::size_t
   return overlap;
 }
 
+/// Contact of particle i with boundary @p b: the walls first, then the moving bodies.
+template <bool kFriction>
+double boundary_contact(Particles& p, const Scene& scene, std::size_t b, std::size_t i,
+                        Eigen::Vector3d& force, Eigen::Vector3d& torque) {
+  if (b < scene.walls.size()) {
+    const PlaneWall& wall = scene.walls[b];
+    return surface_contact<kFriction>(p, scene, wall.material, b, i,
+                                      distance_to(wall, p.x[i], p.y[i], p.z[i]), wall.normal,
+                                      Eigen::Vector3d::Zero(), force, torque);
+  }
+  const Body& body = scene.bodies[b - scene.walls.size()];
+  const Eigen::Vector3d centre(p.x[i], p.y[i], p.z[i]);
+  const SurfacePoint surface = nearest_surface(body, centre);
+  const Eigen::Vector3d point = centre - surface.gap * surface.normal;
+  return surface_contact<kFriction>(p, scene, body.material, b, i, surface.gap, surface.normal,
+                                    surface_velocity(body, point), force, torque);
+}
+
 /// Pass 2: total force (and, with kFriction, torque) per particle = gravity + own pairs -
 /// transposed pairs + walls. Each particle's force from each wall goes to @p wall_forces
 /// (3 values per particle and wall) for wall-load reports.
@@ -213,7 +234,7 @@ template <bool kFriction>
 ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborList& list,
                              const PairForces& pair_forces, std::vector<double>& wall_forces) {
   const std::size_t n = p.size();
-  const std::size_t walls = scene.walls.size();
+  const std::size_t walls = scene.walls.size() + scene.bodies.size();
   wall_forces.resize(n * walls * 3);
   const Eigen::Vector3d g = scene.gravity;
   std::size_t wall_contacts = 0;
@@ -239,7 +260,7 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
     }
     for (std::size_t w = 0; w < walls; ++w) {
       Eigen::Vector3d wall_f, wall_tau;
-      const double overlap = wall_contact<kFriction>(p, scene, w, i, wall_f, wall_tau);
+      const double overlap = boundary_contact<kFriction>(p, scene, w, i, wall_f, wall_tau);
       double* stored = &wall_forces[(i * walls + w) * 3];
       stored[0] = wall_f.x();
       stored[1] = wall_f.y();

@@ -59,7 +59,8 @@ Scene build_scene(const Case& description) {
     scene.domain.max = hi.array() + pad;
   }
   scene.friction = description.friction > 0.0 || description.rolling_friction > 0.0;
-  scene.particles.set_wall_count(static_cast<int>(scene.walls.size()));
+  scene.bodies = description.bodies;
+  scene.particles.set_wall_count(static_cast<int>(scene.walls.size() + scene.bodies.size()));
   std::int64_t next_id = 0;
   for (const ParticleSpec& spec : description.particles) {
     const double density = description.materials[static_cast<std::size_t>(spec.material)].density;

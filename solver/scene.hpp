@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <vector>
 
+#include "geometry/bodies.hpp"
 #include "geometry/domain.hpp"
 #include "geometry/walls.hpp"
 #include "solver/case.hpp"
@@ -24,6 +25,7 @@ struct Scene {
   double time_step = 0.0;
   Domain domain;                 ///< cell-grid bounds and periodic axes
   std::vector<PlaneWall> walls;  ///< static planes (a box container is six)
+  std::vector<Body> bodies;      ///< moving tools (blade, roller), after the walls in every slot
   double skin = 0.0;             ///< Verlet skin [m]
   int reorder_interval = 20;     ///< sort particles by cell every this many list builds (0: never)
   bool friction = false;         ///< tangential law, rolling resistance and rotation are on

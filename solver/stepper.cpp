@@ -26,6 +26,15 @@ Stepper::Stepper(Scene& scene, const StepperState& restored, PairFlag pair_flag)
   list_.restore(scene_.particles, scene_.domain, scene_.skin, restored.list);
   pair_forces_.resize(list_.pair_count(), scene_.friction);
   apply_slips(restored.slips);
+  if (restored.bodies.size() != 6 * scene_.bodies.size()) {
+    throw std::invalid_argument("saved state does not match the case's moving bodies");
+  }
+  for (std::size_t b = 0; b < scene_.bodies.size(); ++b) {
+    for (int a = 0; a < 3; ++a) {
+      scene_.bodies[b].center[a] = restored.bodies[6 * b + static_cast<std::size_t>(a)];
+      scene_.bodies[b].velocity[a] = restored.bodies[6 * b + 3 + static_cast<std::size_t>(a)];
+    }
+  }
   contacts_ = restored.contacts;
   time_ = restored.time;
   step_count_ = restored.step;
@@ -120,6 +129,11 @@ void Stepper::step() {
   const double dt = scene_.time_step;
   const double half_dt = 0.5 * dt;
   const std::size_t n = p.size();
+  // Tools move with the velocity prescribed at the start of the step.
+  for (Body& body : scene_.bodies) {
+    body.velocity = velocity_at(body, time_);
+    body.center += dt * body.velocity;
+  }
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles)
   for (std::size_t i = 0; i < n; ++i) {
     const double kick = half_dt * p.inv_mass[i];
@@ -218,11 +232,15 @@ StepperState Stepper::save_state() const {
   state.contacts = contacts_;
   list_.save(state.list);
   state.slips = collect_slips();
+  for (const Body& body : scene_.bodies) {
+    for (int a = 0; a < 3; ++a) state.bodies.push_back(body.center[a]);
+    for (int a = 0; a < 3; ++a) state.bodies.push_back(body.velocity[a]);
+  }
   return state;
 }
 
 std::vector<Eigen::Vector3d> Stepper::wall_forces() const {
-  const std::size_t walls = scene_.walls.size();
+  const std::size_t walls = scene_.walls.size() + scene_.bodies.size();
   std::vector<Eigen::Vector3d> totals(walls, Eigen::Vector3d::Zero());
   for (std::size_t i = 0; i < scene_.particles.size(); ++i) {
     for (std::size_t w = 0; w < walls; ++w) {

@@ -33,6 +33,7 @@ struct StepperState {
   ContactSummary contacts;
   NeighborListState list;
   std::vector<SlipRecord> slips;  ///< tangential springs of the pairs in contact
+  std::vector<double> bodies;     ///< centre and velocity (6 values) of every moving body
 };
 
 /// Advances a scene in time. Owns the neighbor list and per-pair force slots; the scene owns the
@@ -69,8 +70,8 @@ class Stepper {
   const PairForces& pair_forces() const { return pair_forces_; }
   /// Tangential spring elongations, indexed like the neighbor list.
   const PairHistory& pair_history() const { return history_; }
-  /// Load on each wall (minus the force it exerts on the particles) from the last force
-  /// evaluation, in scene.walls order, summed in index order.
+  /// Load on each wall, then each moving body (minus the force it exerts on the particles), from
+  /// the last force evaluation, summed in index order.
   std::vector<Eigen::Vector3d> wall_forces() const;
   /// Kinetic energy of translation, summed in index order [J].
   double kinetic_energy() const;
