@@ -294,7 +294,23 @@ int run_run(const RunCommand& o) {
             << r.packing_region.max.transpose() << "] m\n"
             << "bed_particles = " << r.packing.particles << "\n"
             << "bed_solid_fraction = " << r.packing.solid_fraction << "\n"
-            << "mean_coordination = " << r.packing.mean_coordination << "\n";
+            << "mean_coordination = " << r.packing.mean_coordination << "\n"
+            << "clusters = " << r.clusters << "\n"
+            << "largest_cluster = " << r.largest_cluster << "\n"
+            << "primary_d10_d50_d90 = " << r.primary_sizes.d10 << " " << r.primary_sizes.d50 << " "
+            << r.primary_sizes.d90 << " m\n";
+  if (r.cluster_sizes.count > 0) {
+    std::cout << "agglomerates = " << r.cluster_sizes.count << "\n"
+              << "agglomerate_d10_d50_d90 = " << r.cluster_sizes.d10 << " " << r.cluster_sizes.d50
+              << " " << r.cluster_sizes.d90 << " m\n";
+  }
+  if (r.layer) {
+    std::cout << "layer_solid_fraction = " << r.layer->solid_fraction << "\n"
+              << "layer_mean_height = " << r.layer->mean_surface_height << " m\n"
+              << "layer_roughness = " << r.layer->roughness << " m\n"
+              << "layer_empty_fraction = " << r.layer->empty_fraction << "\n"
+              << "layer_particles = " << r.layer->particles << "\n";
+  }
   return 0;
 }
 

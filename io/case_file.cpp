@@ -382,10 +382,25 @@ RadiusDistribution read_radius(const Reader& reader, const YAML::Node& node,
     d.min = get("min", false);
     d.max = get("max", false);
   } else if (kind == "lognormal") {
-    reader.check_keys(node, path, {"distribution", "median", "sigma", "min", "max"});
+    reader.check_keys(node, path,
+                      {"distribution", "median", "sigma", "d10", "d50", "d90", "min", "max"});
     d.kind = RadiusDistribution::Kind::kLogNormal;
-    d.median = get("median", true);
-    d.sigma = get("sigma", true);
+    if (node["d50"]) {
+      // Sieve data: particle diameters D10 < D50 < D90. For a log-normal, ln D90 - ln D10 spans
+      // 2 z_0.9 = 2.5631 standard deviations of ln r.
+      if (node["median"] || node["sigma"]) {
+        reader.fail(node, path, "give either median and sigma or d10, d50 and d90");
+      }
+      const double d10 = get("d10", true);
+      const double d50 = get("d50", true);
+      const double d90 = get("d90", true);
+      if (!(d10 < d50 && d50 < d90)) reader.fail(node, path, "needs d10 < d50 < d90");
+      d.median = 0.5 * d50;
+      d.sigma = std::log(d90 / d10) / (2.0 * 1.2815515655446004);
+    } else {
+      d.median = get("median", true);
+      d.sigma = get("sigma", true);
+    }
     d.min = get("min", false);
     d.max = get("max", false);
   } else {
@@ -673,9 +688,35 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
   }
   if (const YAML::Node analysis = root["analysis"]) {
     reader.expect_map(analysis, "analysis");
-    reader.check_keys(analysis, "analysis", {"region"});
-    c.analysis_region =
-        read_box(reader, reader.require(analysis, "analysis", "region"), "analysis.region");
+    reader.check_keys(analysis, "analysis", {"region", "layer"});
+    if (const YAML::Node region = analysis["region"]) {
+      c.analysis_region = read_box(reader, region, "analysis.region");
+    }
+    if (const YAML::Node layer = analysis["layer"]) {
+      const std::string path = "analysis.layer";
+      reader.expect_map(layer, path);
+      reader.check_keys(layer, path,
+                        {"x_min", "x_max", "y_min", "y_max", "substrate_z", "layer_height", "bins",
+                         "grid_spacing"});
+      LayerRegion r;
+      r.x_min = reader.number(reader.require(layer, path, "x_min"), path + ".x_min");
+      r.x_max = reader.number(reader.require(layer, path, "x_max"), path + ".x_max");
+      r.y_min = reader.number(reader.require(layer, path, "y_min"), path + ".y_min");
+      r.y_max = reader.number(reader.require(layer, path, "y_max"), path + ".y_max");
+      if (!(r.x_max > r.x_min)) reader.fail(layer["x_max"], path + ".x_max", "must exceed x_min");
+      if (!(r.y_max > r.y_min)) reader.fail(layer["y_max"], path + ".y_max", "must exceed y_min");
+      r.substrate_z =
+          reader.number(reader.require(layer, path, "substrate_z"), path + ".substrate_z");
+      r.layer_height =
+          reader.positive(reader.require(layer, path, "layer_height"), path + ".layer_height");
+      if (const YAML::Node bins = layer["bins"]) {
+        r.bins = static_cast<int>(reader.integer(bins, path + ".bins", 1, 100000));
+      }
+      if (const YAML::Node spacing = layer["grid_spacing"]) {
+        r.grid_spacing = reader.positive(spacing, path + ".grid_spacing");
+      }
+      c.layer = r;
+    }
   }
   return c;
 }

@@ -291,6 +291,45 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
           ? *description.analysis_region
           : bed_region(scene.particles, Box{scene.domain.min, scene.domain.max}, 4.0 * max_radius);
   result.packing = analyse_packing(scene.particles, stepper.neighbors(), result.packing_region);
+
+  // Agglomerates: bonded clusters, and their size distribution against the primary particles'.
+  const Particles& p = scene.particles;
+  const NeighborList& list = stepper.neighbors();
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> bonded;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    for (std::uint32_t k = list.row_begin[i]; k < list.row_begin[i + 1]; ++k) {
+      if (stepper.pair_forces().bonded[k] != 0) {
+        bonded.emplace_back(static_cast<std::uint32_t>(i), list.second[k]);
+      }
+    }
+  }
+  const ClusterReport clusters = find_clusters(p, bonded);
+  std::vector<double> primary, agglomerates;
+  for (const double r : p.radius) primary.push_back(2.0 * r);
+  AtomicFile cluster_file((directory / "clusters.csv").string());
+  cluster_file.stream() << "cluster,particles,volume_equivalent_diameter\n";
+  for (std::size_t k = 0; k < clusters.sizes.size(); ++k) {
+    result.largest_cluster = std::max(result.largest_cluster, clusters.sizes[k]);
+    if (clusters.sizes[k] < 2) continue;
+    agglomerates.push_back(clusters.volume_equivalent_diameters[k]);
+    cluster_file.stream() << k << ',' << clusters.sizes[k] << ','
+                          << exact(clusters.volume_equivalent_diameters[k]) << '\n';
+  }
+  cluster_file.commit();
+  result.clusters = clusters.sizes.size();
+  result.primary_sizes = size_quantiles(primary);
+  result.cluster_sizes = size_quantiles(agglomerates);
+
+  if (description.layer) {
+    result.layer = measure_layer(p, *description.layer);
+    AtomicFile layer_file((directory / "layer.csv").string());
+    layer_file.stream() << "x,solid_fraction\n";
+    for (std::size_t b = 0; b < result.layer->bin_x_center.size(); ++b) {
+      layer_file.stream() << exact(result.layer->bin_x_center[b]) << ','
+                          << exact(result.layer->bin_solid_fraction[b]) << '\n';
+    }
+    layer_file.commit();
+  }
   return result;
 }
 

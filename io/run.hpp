@@ -12,6 +12,7 @@
 #include "solver/analysis.hpp"
 #include "solver/case.hpp"
 #include "solver/contact_kernel.hpp"
+#include "solver/layer_metrics.hpp"
 
 namespace bondem {
 
@@ -42,15 +43,22 @@ struct RunResult {
   ContactSummary contacts;  ///< at the end
   PackingReport packing;    ///< bed solid fraction and coordination at the end
   Box packing_region;
+  std::optional<LayerMetrics> layer;  ///< spread layer, when the case asks for it
+  std::size_t clusters = 0;           ///< bonded clusters (singletons included)
+  std::size_t largest_cluster = 0;    ///< particles in the largest bonded cluster
+  SizeQuantiles primary_sizes;        ///< particle diameters
+  SizeQuantiles cluster_sizes;        ///< volume-equivalent diameters of clusters of 2 or more
 };
 
 /// Run @p description to time.end, writing into the output directory `history.csv` (time,
 /// kinetic energy, contacts, bonds, wall contacts, largest overlap, at output.history_interval),
 /// `final_state.csv` (one row per particle sorted by id: id, x, y, z, vx, vy, vz, radius, 17
 /// significant digits) and `checkpoint.bin` (at output.checkpoint_interval and at the end).
-/// Progress goes to @p log. Throws CaseError when the time step exceeds the recommended one or a
-/// restart checkpoint does not fit, RunInterrupted when stopped on request, BlowUpError (after
-/// writing `last_good_state.csv`) when the physics blows up. Every file is written atomically.
+/// With analysis.layer, also `layer.csv` (solid fraction per bin along x) and, always,
+/// `clusters.csv` (bonded clusters: size and volume-equivalent diameter). Progress goes to @p log.
+/// Throws CaseError when the time step exceeds the recommended one or a restart checkpoint does not
+/// fit, RunInterrupted when stopped on request, BlowUpError (after writing `last_good_state.csv`)
+/// when the physics blows up. Every file is written atomically.
 RunResult run_case(const Case& description, const RunOptions& options, std::ostream& log);
 
 }  // namespace bondem

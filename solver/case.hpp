@@ -12,6 +12,7 @@
 #include "geometry/domain.hpp"
 #include "geometry/walls.hpp"
 #include "solver/bond_law.hpp"
+#include "solver/layer_metrics.hpp"
 #include "solver/pair.hpp"
 
 namespace bondem {
@@ -66,6 +67,8 @@ struct Case {
   double history_interval = 0.0;     ///< [s] between history rows; 0 picks end / 100
   /// Region whose particle centres define the reported bed solid fraction and coordination.
   std::optional<Box> analysis_region;
+  /// Spread layer to measure at the end (solid fraction profile, roughness, bare substrate).
+  std::optional<LayerRegion> layer;
 
   /// Bond-law coefficients of material pair (a, b).
   PairCoefficients pair_coefficients(int a, int b) const;

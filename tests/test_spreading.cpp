@@ -1,0 +1,38 @@
+// The spreading CI variant end to end: a blade pass leaves a layer whose packing lies in the
+// range a 2.5 x D90 gap allows.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <sstream>
+
+#include "io/case_file.hpp"
+#include "io/run.hpp"
+
+namespace bondem {
+namespace {
+
+TEST(Spreading, CiVariantLeavesAPlausibleLayer) {
+  const Case c = load_case(BONDEM_CASES_DIR "/powder_spreading_ci.yaml");
+  RunOptions options;
+  options.output_directory =
+      (std::filesystem::path(::testing::TempDir()) / "bondem_spreading_ci").string();
+  options.quiet = true;
+  std::ostringstream log;
+  const RunResult r = run_case(c, options, log);
+  ASSERT_TRUE(r.layer.has_value());
+  const LayerMetrics& layer = *r.layer;
+  const double gap = c.layer->layer_height;
+  // A blade pass with a gap of 2.5 x D90 deposits a sparse layer: well above nothing, well below
+  // random close packing (0.64), as reported for such gaps (0.2-0.5). The mean surface height
+  // lies between one D10 and the gap; no particle passes under the blade taller than the gap.
+  EXPECT_GT(layer.solid_fraction, 0.15);
+  EXPECT_LT(layer.solid_fraction, 0.5);
+  EXPECT_GT(layer.mean_surface_height, 50e-6);
+  EXPECT_LT(layer.mean_surface_height, gap);
+  EXPECT_LT(layer.empty_fraction, 0.5);
+  EXPECT_GT(layer.particles, 20u);
+  EXPECT_EQ(r.largest_cluster, 1u);  // criterion never: no agglomerates
+}
+
+}  // namespace
+}  // namespace bondem
