@@ -136,7 +136,8 @@ class VtkObserver {
       }
     }
     writer_.write_frame(stepper.time(), p, contacts_, scene.walls, scene.domain,
-                        {{"coordination", &coordination_}, {"bond_count", &bond_count_}});
+                        {{"coordination", &coordination_}, {"bond_count", &bond_count_}}, {},
+                        scene.bodies);
   }
 
  private:

@@ -315,6 +315,72 @@ vtkSmartPointer<vtkPolyData> wall_data(const std::vector<PlaneWall>& walls, cons
   return data;
 }
 
+/// Moving tools as closed surfaces: a box as its six faces, a cylinder as a 32-sided prism whose
+/// length spans the domain along its axis. Cell arrays: tool index, material.
+vtkSmartPointer<vtkPolyData> tool_data(const std::vector<Body>& bodies, const Domain& domain) {
+  vtkNew<vtkPoints> points;
+  points->SetDataTypeToDouble();
+  vtkNew<vtkCellArray> polys;
+  std::vector<int> tool_of_cell;
+  const auto add = [&](const std::vector<Eigen::Vector3d>& corners, int tool) {
+    std::vector<vtkIdType> ids;
+    for (const Eigen::Vector3d& c : corners) ids.push_back(points->InsertNextPoint(c.data()));
+    polys->InsertNextCell(vtk_size(ids.size()), ids.data());
+    tool_of_cell.push_back(tool);
+  };
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    const Body& body = bodies[b];
+    const int tool = static_cast<int>(b);
+    if (body.shape == Body::Shape::kBox) {
+      const Eigen::Vector3d lo = body.center - body.half_size;
+      const Eigen::Vector3d hi = body.center + body.half_size;
+      const auto corner = [&](int i) {
+        return Eigen::Vector3d((i & 1) ? hi.x() : lo.x(), (i & 2) ? hi.y() : lo.y(),
+                               (i & 4) ? hi.z() : lo.z());
+      };
+      const int faces[6][4] = {{0, 2, 6, 4}, {1, 5, 7, 3}, {0, 4, 5, 1},
+                               {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 6, 7, 5}};
+      for (const auto& face : faces) {
+        add({corner(face[0]), corner(face[1]), corner(face[2]), corner(face[3])}, tool);
+      }
+    } else {
+      const Eigen::Vector3d axis = body.axis.normalized();
+      const Eigen::Vector3d u = axis.unitOrthogonal();
+      const Eigen::Vector3d v = axis.cross(u);
+      // Span the domain along the axis: project the domain's corners on it.
+      double s_min = 0.0, s_max = 0.0;
+      for (int i = 0; i < 8; ++i) {
+        const Eigen::Vector3d c((i & 1) ? domain.max.x() : domain.min.x(),
+                                (i & 2) ? domain.max.y() : domain.min.y(),
+                                (i & 4) ? domain.max.z() : domain.min.z());
+        const double s = (c - body.center).dot(axis);
+        s_min = i == 0 ? s : std::min(s_min, s);
+        s_max = i == 0 ? s : std::max(s_max, s);
+      }
+      constexpr int kSides = 32;
+      for (int k = 0; k < kSides; ++k) {
+        const double a0 = 2.0 * M_PI * k / kSides;
+        const double a1 = 2.0 * M_PI * (k + 1) / kSides;
+        const Eigen::Vector3d r0 = body.radius * (std::cos(a0) * u + std::sin(a0) * v);
+        const Eigen::Vector3d r1 = body.radius * (std::cos(a1) * u + std::sin(a1) * v);
+        add({body.center + r0 + s_min * axis, body.center + r1 + s_min * axis,
+             body.center + r1 + s_max * axis, body.center + r0 + s_max * axis},
+            tool);
+      }
+    }
+  }
+  auto data = vtkSmartPointer<vtkPolyData>::New();
+  data->SetPoints(points);
+  data->SetPolys(polys);
+  vtkCellData* arrays = data->GetCellData();
+  arrays->AddArray(integer_array<vtkTypeInt32Array>(
+      "tool_index", tool_of_cell.size(), [&](std::size_t c) { return tool_of_cell[c]; }));
+  arrays->AddArray(integer_array<vtkTypeInt32Array>(
+      "material", tool_of_cell.size(),
+      [&](std::size_t c) { return bodies[static_cast<std::size_t>(tool_of_cell[c])].material; }));
+  return data;
+}
+
 void check_inputs(const Particles& p, const std::vector<PlaneWall>& walls,
                   const std::vector<VtkSeriesWriter::ScalarField>& scalars,
                   const std::vector<VtkSeriesWriter::VectorField>& vectors) {
@@ -458,7 +524,8 @@ void VtkSeriesWriter::write_frame(double time, const Particles& particles,
                                   const std::vector<ContactRecord>& contacts,
                                   const std::vector<PlaneWall>& walls, const Domain& domain,
                                   const std::vector<ScalarField>& scalars,
-                                  const std::vector<VectorField>& vectors) {
+                                  const std::vector<VectorField>& vectors,
+                                  const std::vector<Body>& bodies) {
   if (!std::isfinite(time)) throw std::invalid_argument("VTK output: time is not finite");
   if (!times_.empty() && !(time > times_.back())) {
     throw std::invalid_argument("VTK output: frame time " + format_time(time) +
@@ -476,6 +543,10 @@ void VtkSeriesWriter::write_frame(double time, const Particles& particles,
   write_vtp(particle_data(particles, scalars, vectors),
             (dir / frame_file("particles", frame)).string());
   write_vtp(contact_data(contacts), (dir / frame_file("contacts", frame)).string());
+  if (!bodies.empty()) {
+    write_vtp(tool_data(bodies, domain), (dir / frame_file("tools", frame)).string());
+    tools_ = true;
+  }
 
   std::optional<WallGeometry> walls_before = last_walls_;
   std::string wall_file;
@@ -526,6 +597,13 @@ void VtkSeriesWriter::write_collections() const {
   write_collection((dir / "particles.pvd").string(), times_, particle_files);
   write_collection((dir / "contacts.pvd").string(), times_, contact_files);
   write_collection((dir / "walls.pvd").string(), times_, wall_files_);
+  if (tools_) {
+    std::vector<std::string> tool_files;
+    for (std::size_t frame = 0; frame < times_.size(); ++frame) {
+      tool_files.push_back(frame_file("tools", frame));
+    }
+    write_collection((dir / "tools.pvd").string(), times_, tool_files);
+  }
 }
 
 const VtpArray* VtpContents::point_array(const std::string& name) const {

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "geometry/bodies.hpp"
 #include "geometry/domain.hpp"
 #include "geometry/walls.hpp"
 #include "solver/particles.hpp"
@@ -86,7 +87,8 @@ class VtkSeriesWriter {
   void write_frame(double time, const Particles& particles,
                    const std::vector<ContactRecord>& contacts, const std::vector<PlaneWall>& walls,
                    const Domain& domain, const std::vector<ScalarField>& scalars = {},
-                   const std::vector<VectorField>& vectors = {});
+                   const std::vector<VectorField>& vectors = {},
+                   const std::vector<Body>& bodies = {});
 
   /// Continue the series a stopped run left in this directory: keep its frames at times up to
   /// @p time (read from walls.pvd), number the next frame after them. No series: nothing kept.
@@ -114,6 +116,7 @@ class VtkSeriesWriter {
   std::vector<double> times_;               ///< time of every frame written
   std::vector<std::string> wall_files_;     ///< wall file of every frame written
   std::optional<WallGeometry> last_walls_;  ///< geometry of the newest wall file
+  bool tools_ = false;                      ///< moving tools were written: keep a tools.pvd series
 };
 
 /// One data array read back from a .vtp file.

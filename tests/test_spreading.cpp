@@ -7,6 +7,7 @@
 
 #include "io/case_file.hpp"
 #include "io/run.hpp"
+#include "io/vtk_output.hpp"
 
 namespace bondem {
 namespace {
@@ -32,6 +33,15 @@ TEST(Spreading, CiVariantLeavesAPlausibleLayer) {
   EXPECT_LT(layer.empty_fraction, 0.5);
   EXPECT_GT(layer.particles, 20u);
   EXPECT_EQ(r.largest_cluster, 1u);  // criterion never: no agglomerates
+
+  // The blade is in the VTK output as a closed box that moved along x.
+  const std::filesystem::path directory(options.output_directory);
+  ASSERT_TRUE(std::filesystem::exists(directory / "tools.pvd"));
+  const VtpContents first = read_vtp((directory / "tools_000000.vtp").string());
+  const VtpContents last = read_vtp((directory / "tools_000011.vtp").string());
+  EXPECT_EQ(first.polys, 6u);
+  ASSERT_NE(last.cell_array("tool_index"), nullptr);
+  EXPECT_NEAR(last.points[0].x() - first.points[0].x(), 0.1 * (0.044 - 0.02), 1e-9);
 }
 
 }  // namespace
