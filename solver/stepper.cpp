@@ -63,7 +63,9 @@ ContactSummary Stepper::dispatch_criterion(Adhesion adhesion) {
 
 void Stepper::compute_forces() {
   pair_forces_.resize(list_.pair_count(), scene_.friction);
-  if (history_.sx.size() != list_.pair_count()) history_.resize(list_.pair_count());
+  if (scene_.friction && history_.sx.size() != list_.pair_count()) {
+    history_.resize(list_.pair_count());
+  }
   ContactSummary pairs;
   ContactSummary walls;
   if (scene_.friction) {
@@ -96,6 +98,7 @@ std::vector<SlipRecord> Stepper::collect_slips() const {
 }
 
 void Stepper::apply_slips(std::vector<SlipRecord> slips) {
+  if (!scene_.friction) return;  // no tangential springs to carry
   history_.resize(list_.pair_count());
   if (slips.empty()) return;
   // Key each spring by its pair of ids, smaller first; the elongation belongs to the first
@@ -242,6 +245,7 @@ StepperState Stepper::save_state() const {
 std::vector<Eigen::Vector3d> Stepper::wall_forces() const {
   const std::size_t walls = scene_.walls.size() + scene_.bodies.size();
   std::vector<Eigen::Vector3d> totals(walls, Eigen::Vector3d::Zero());
+  if (wall_forces_.size() != scene_.particles.size() * walls * 3) return totals;  // not evaluated
   for (std::size_t i = 0; i < scene_.particles.size(); ++i) {
     for (std::size_t w = 0; w < walls; ++w) {
       const double* f = &wall_forces_[(i * walls + w) * 3];
