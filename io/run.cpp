@@ -136,7 +136,8 @@ class VtkObserver {
       }
     }
     writer_.write_frame(stepper.time(), p, contacts_, scene.walls, scene.domain,
-                        {{"coordination", &coordination_}, {"bond_count", &bond_count_}}, {},
+                        {{"coordination", &coordination_}, {"bond_count", &bond_count_}},
+                        {{"angular_velocity", &p.wx, &p.wy, &p.wz}, {"torque", &p.tx, &p.ty, &p.tz}},
                         scene.bodies);
   }
 

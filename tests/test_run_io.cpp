@@ -92,6 +92,8 @@ TEST(Restart, VtkSeriesContinuesAcrossARestart) {
   EXPECT_EQ(last.points.size(), c.particles.size());
   ASSERT_NE(last.point_array("coordination"), nullptr);
   ASSERT_NE(last.point_array("bond_count"), nullptr);
+  ASSERT_NE(last.point_array("angular_velocity"), nullptr);
+  EXPECT_EQ(last.point_array("angular_velocity")->components, 3);
   const std::string resumed_series = slurp(resumed / "particles.pvd");
   EXPECT_EQ(std::count(resumed_series.begin(), resumed_series.end(), '\n'), 6 + 5);
   // The last frames hold the same particles at the same time.
