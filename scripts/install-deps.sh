@@ -29,4 +29,12 @@ if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi
 echo "install-deps: installing ${missing[*]}"
 export DEBIAN_FRONTEND=noninteractive
 $sudo apt-get update -qq
-$sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+if ! $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"; then
+  # Seen here: Debian's lammps and liggghts pull in python3-paraview, which conflicts with the
+  # python3-vtk9 that libvtk9-dev needs.
+  if dpkg-query -W -f='${Status}' python3-paraview 2>/dev/null | grep -q "install ok installed"; then
+    echo "install-deps: python3-paraview (installed with Debian's lammps/liggghts) conflicts with" \
+      "libvtk9-dev; remove it first: apt-get remove python3-paraview" >&2
+  fi
+  exit 1
+fi

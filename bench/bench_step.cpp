@@ -1,0 +1,77 @@
+// Whole-step and neighbor-build benchmarks on a dense frictional lattice like the peers' case
+// (shared/peers): spheres of 1 mm on a simple-cubic lattice of 1.999 mm (neighbors slightly
+// overlapped), periodic in x and y, a floor, gravity.
+#include <benchmark/benchmark.h>
+#include <omp.h>
+
+#include "solver/insertion.hpp"
+#include "solver/scene.hpp"
+#include "solver/stepper.hpp"
+
+namespace {
+
+using namespace bondem;
+
+/// side x side x layers lattice; friction on or off.
+Scene lattice_scene(int side, int layers, bool friction) {
+  Case c;
+  c.source = "bench";
+  c.materials.push_back({"powder", 2000.0, 1.0e9, 0.3});
+  c.contact_damping = 0.197;  // restitution 0.5
+  c.friction = friction ? 0.5 : 0.0;
+  c.bond.criterion = BondCriterion::kNever;
+  c.bond.equilibrium_overlap = 1e-6;
+  c.time_step = 5e-7;
+  c.gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
+  const double spacing = 0.001999;
+  const double length = side * spacing;
+  const Box region{Eigen::Vector3d(-1e-3, -1e-3, 0.0),
+                   Eigen::Vector3d(length - 1e-3, length - 1e-3, layers * spacing + 1e-6)};
+  c.particles = insert_lattice(region, spacing, 1e-3, 0);
+  Domain d;
+  d.min = Eigen::Vector3d(-1e-3, -1e-3, 0.0);
+  d.max = Eigen::Vector3d(length - 1e-3, length - 1e-3, 2.0 * layers * spacing);
+  d.periodic = {true, true, false};
+  c.domain = d;
+  c.walls.push_back({Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 0, "floor"});
+  c.skin = 1e-4;
+  return build_scene(c);
+}
+
+void run_steps(benchmark::State& state, bool friction) {
+  const auto side = static_cast<int>(state.range(0));
+  Scene scene = lattice_scene(side, 13, friction);
+  Stepper stepper(scene);
+  for (auto _ : state) stepper.step();
+  const auto particles = static_cast<double>(scene.particles.size());
+  state.counters["particles"] = particles;
+  state.counters["threads"] = omp_get_max_threads();
+  state.counters["particle_steps_per_second"] = benchmark::Counter(
+      particles * static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+}
+
+void BM_Step_Frictionless(benchmark::State& state) {
+  run_steps(state, false);
+}
+void BM_Step_Friction(benchmark::State& state) {
+  run_steps(state, true);
+}
+
+void BM_NeighborBuild(benchmark::State& state) {
+  Scene scene = lattice_scene(static_cast<int>(state.range(0)), 13, false);
+  NeighborList list;
+  for (auto _ : state) list.build(scene.particles, scene.domain, 1e-4, false);
+  state.counters["pairs_per_particle"] =
+      static_cast<double>(list.pair_count()) / static_cast<double>(scene.particles.size());
+  state.counters["particles_per_second"] =
+      benchmark::Counter(static_cast<double>(scene.particles.size() * state.iterations()),
+                         benchmark::Counter::kIsRate);
+}
+
+}  // namespace
+
+// 10 x 10 x 13 = 1300 particles up to the peers' 40 x 40 x 13 = 20 800.
+BENCHMARK(BM_Step_Frictionless)->Arg(10)->Arg(20)->Arg(40)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Step_Friction)->Arg(10)->Arg(20)->Arg(40)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_NeighborBuild)->Arg(10)->Arg(40)->Unit(benchmark::kMillisecond);
+BENCHMARK_MAIN();
