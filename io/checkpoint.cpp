@@ -118,7 +118,9 @@ std::uint64_t case_fingerprint(const Case& c) {
   for (const Body& b : c.bodies) {
     text << static_cast<int>(b.shape) << ' ' << b.center.transpose() << ' '
          << b.half_size.transpose() << ' ' << b.axis.transpose() << ' ' << b.radius << ' ' << b.spin
-         << ' ' << b.material << ' ' << b.motion.size() << ';';
+         << ' ' << b.material << ';';
+    for (const MotionKey& key : b.motion)
+      text << key.time << ' ' << key.velocity.transpose() << ';';
   }
   const std::string canonical = text.str();
   return fnv1a(canonical.data(), canonical.size());
