@@ -135,10 +135,10 @@ class VtkObserver {
         bond_count_[j] += bonded ? 1.0 : 0.0;
       }
     }
-    writer_.write_frame(stepper.time(), p, contacts_, scene.walls, scene.domain,
-                        {{"coordination", &coordination_}, {"bond_count", &bond_count_}},
-                        {{"angular_velocity", &p.wx, &p.wy, &p.wz}, {"torque", &p.tx, &p.ty, &p.tz}},
-                        scene.bodies);
+    writer_.write_frame(
+        stepper.time(), p, contacts_, scene.walls, scene.domain,
+        {{"coordination", &coordination_}, {"bond_count", &bond_count_}},
+        {{"angular_velocity", &p.wx, &p.wy, &p.wz}, {"torque", &p.tx, &p.ty, &p.tz}}, scene.bodies);
   }
 
  private:
