@@ -264,9 +264,13 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
       write_history();
       write_final_state(scene.particles, (directory / "final_state.csv").string());
       std::ostringstream message;
+      // A built-in case has no file to name: `bondem run` without one picks it again.
+      const std::string case_argument =
+          description.source.rfind('<', 0) == 0 ? "" : description.source + " ";
       message << "interrupted at step " << s << " (t = " << stepper.time()
-              << " s); checkpoint written. Resume with: bondem run " << description.source
-              << " --output " << directory.string() << " --restart " << checkpoint_path;
+              << " s); checkpoint written. Resume with: bondem run " << case_argument << "--output "
+              << directory.string() << " --restart " << checkpoint_path
+              << " (and the same --set options, if any)";
       throw RunInterrupted(message.str());
     }
   }
