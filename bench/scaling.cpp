@@ -1,0 +1,104 @@
+// Strong and weak scaling of whole time steps on a settled-like dense lattice (the peers' kind of
+// case), and memory per particle. Usage:
+//   bench_scaling [--friction] [--steps N] [--sizes 1000,10000,...] > scaling.csv
+// One row per (particles, threads): particle-steps per second, speed-up, efficiency, and the peak
+// resident memory of the process divided by the particle count (measured after the largest size,
+// so it bounds the memory per particle from above).
+#include <omp.h>
+#include <sys/resource.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "solver/insertion.hpp"
+#include "solver/scene.hpp"
+#include "solver/stepper.hpp"
+
+namespace {
+
+using namespace bondem;
+
+/// A simple-cubic lattice of about @p target spheres, 13 layers high, periodic in x and y.
+Scene lattice(std::size_t target, bool friction) {
+  Case c;
+  c.source = "scaling";
+  c.materials.push_back({"powder", 2000.0, 1.0e9, 0.3});
+  c.contact_damping = 0.197;
+  c.friction = friction ? 0.5 : 0.0;
+  c.bond.criterion = BondCriterion::kNever;
+  c.bond.equilibrium_overlap = 1e-6;
+  c.time_step = 5e-7;
+  c.gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
+  const double spacing = 0.001999;
+  const int layers = 13;
+  const int side =
+      std::max(3, static_cast<int>(std::lround(std::sqrt(static_cast<double>(target) / 13.0))));
+  const double length = side * spacing;
+  const Box region{Eigen::Vector3d(0.0, 0.0, 0.0),
+                   Eigen::Vector3d(length, length, layers * spacing + 1e-6)};
+  c.particles = insert_lattice(region, spacing, 1e-3, 0);
+  Domain d;
+  d.max = Eigen::Vector3d(length, length, 2.0 * layers * spacing);
+  d.periodic = {true, true, false};
+  c.domain = d;
+  c.walls.push_back({Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 0, "floor"});
+  c.skin = 1e-4;
+  return build_scene(c);
+}
+
+double peak_resident_bytes() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<double>(usage.ru_maxrss) * 1024.0;  // ru_maxrss is in KiB on Linux
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  bool friction = false;
+  int steps = 200;
+  std::vector<std::size_t> sizes = {1000, 10000, 100000, 1000000};
+  for (int a = 1; a < argc; ++a) {
+    if (std::strcmp(argv[a], "--friction") == 0) {
+      friction = true;
+    } else if (std::strcmp(argv[a], "--steps") == 0 && a + 1 < argc) {
+      steps = std::atoi(argv[++a]);
+    } else if (std::strcmp(argv[a], "--sizes") == 0 && a + 1 < argc) {
+      sizes.clear();
+      std::stringstream list(argv[++a]);
+      for (std::string item; std::getline(list, item, ',');) sizes.push_back(std::stoul(item));
+    } else {
+      std::fprintf(stderr, "usage: %s [--friction] [--steps N] [--sizes a,b,c]\n", argv[0]);
+      return 2;
+    }
+  }
+  const int max_threads = omp_get_max_threads();
+  std::printf(
+      "particles,threads,particle_steps_per_second,speedup,efficiency,peak_bytes_per_particle\n");
+  for (const std::size_t target : sizes) {
+    double single = 0.0;
+    for (int threads = 1; threads <= max_threads; ++threads) {
+      omp_set_num_threads(threads);
+      Scene scene = lattice(target, friction);
+      Stepper stepper(scene);
+      for (int s = 0; s < 20; ++s) stepper.step();  // warm up caches and the neighbor list
+      const auto start = std::chrono::steady_clock::now();
+      for (int s = 0; s < steps; ++s) stepper.step();
+      const double seconds =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      const double n = static_cast<double>(scene.particles.size());
+      const double rate = n * steps / seconds;
+      if (threads == 1) single = rate;
+      std::printf("%zu,%d,%.4g,%.3f,%.3f,%.0f\n", scene.particles.size(), threads, rate,
+                  rate / single, rate / single / threads, peak_resident_bytes() / n);
+      std::fflush(stdout);
+    }
+  }
+  return 0;
+}
