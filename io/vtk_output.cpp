@@ -28,6 +28,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <regex>
 #include <set>
 #include <stdexcept>
@@ -359,8 +360,8 @@ vtkSmartPointer<vtkPolyData> tool_data(const std::vector<Body>& bodies, const Do
       }
       constexpr int kSides = 32;
       for (int k = 0; k < kSides; ++k) {
-        const double a0 = 2.0 * M_PI * k / kSides;
-        const double a1 = 2.0 * M_PI * (k + 1) / kSides;
+        const double a0 = 2.0 * std::numbers::pi * k / kSides;
+        const double a1 = 2.0 * std::numbers::pi * (k + 1) / kSides;
         const Eigen::Vector3d r0 = body.radius * (std::cos(a0) * u + std::sin(a0) * v);
         const Eigen::Vector3d r1 = body.radius * (std::cos(a1) * u + std::sin(a1) * v);
         add({body.center + r0 + s_min * axis, body.center + r1 + s_min * axis,
