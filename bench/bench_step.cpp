@@ -4,39 +4,14 @@
 #include <benchmark/benchmark.h>
 #include <omp.h>
 
-#include "solver/insertion.hpp"
-#include "solver/scene.hpp"
+#include "lattice_case.hpp"
 #include "solver/stepper.hpp"
 
 namespace {
 
 using namespace bondem;
 
-/// side x side x layers lattice; friction on or off.
-Scene lattice_scene(int side, int layers, bool friction) {
-  Case c;
-  c.source = "bench";
-  c.materials.push_back({"powder", 2000.0, 1.0e9, 0.3});
-  c.contact_damping = 0.197;  // restitution 0.5
-  c.friction = friction ? 0.5 : 0.0;
-  c.bond.criterion = BondCriterion::kNever;
-  c.bond.equilibrium_overlap = 1e-6;
-  c.time_step = 5e-7;
-  c.gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
-  const double spacing = 0.001999;
-  const double length = side * spacing;
-  const Box region{Eigen::Vector3d(-1e-3, -1e-3, 0.0),
-                   Eigen::Vector3d(length - 1e-3, length - 1e-3, layers * spacing + 1e-6)};
-  c.particles = insert_lattice(region, spacing, 1e-3, 0);
-  Domain d;
-  d.min = Eigen::Vector3d(-1e-3, -1e-3, 0.0);
-  d.max = Eigen::Vector3d(length - 1e-3, length - 1e-3, 2.0 * layers * spacing);
-  d.periodic = {true, true, false};
-  c.domain = d;
-  c.walls.push_back({Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 0, "floor"});
-  c.skin = 1e-4;
-  return build_scene(c);
-}
+using bench::lattice_scene;
 
 void run_steps(benchmark::State& state, bool friction) {
   const auto side = static_cast<int>(state.range(0));

@@ -16,40 +16,18 @@
 #include <string>
 #include <vector>
 
-#include "solver/insertion.hpp"
-#include "solver/scene.hpp"
+#include "lattice_case.hpp"
 #include "solver/stepper.hpp"
 
 namespace {
 
 using namespace bondem;
 
-/// A simple-cubic lattice of about @p target spheres, 13 layers high, periodic in x and y.
+/// A lattice of about @p target spheres, 13 layers high.
 Scene lattice(std::size_t target, bool friction) {
-  Case c;
-  c.source = "scaling";
-  c.materials.push_back({"powder", 2000.0, 1.0e9, 0.3});
-  c.contact_damping = 0.197;
-  c.friction = friction ? 0.5 : 0.0;
-  c.bond.criterion = BondCriterion::kNever;
-  c.bond.equilibrium_overlap = 1e-6;
-  c.time_step = 5e-7;
-  c.gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
-  const double spacing = 0.001999;
-  const int layers = 13;
   const int side =
       std::max(3, static_cast<int>(std::lround(std::sqrt(static_cast<double>(target) / 13.0))));
-  const double length = side * spacing;
-  const Box region{Eigen::Vector3d(0.0, 0.0, 0.0),
-                   Eigen::Vector3d(length, length, layers * spacing + 1e-6)};
-  c.particles = insert_lattice(region, spacing, 1e-3, 0);
-  Domain d;
-  d.max = Eigen::Vector3d(length, length, 2.0 * layers * spacing);
-  d.periodic = {true, true, false};
-  c.domain = d;
-  c.walls.push_back({Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 0, "floor"});
-  c.skin = 1e-4;
-  return build_scene(c);
+  return bench::lattice_scene(side, 13, friction);
 }
 
 double peak_resident_bytes() {

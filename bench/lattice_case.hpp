@@ -1,0 +1,35 @@
+#pragma once
+// The benchmarks' dense case, the peers' kind (shared/peers): 1 mm spheres on a simple-cubic
+// lattice of 1.999 mm (neighbors slightly overlapped), periodic in x and y, a floor, gravity,
+// E = 1 GPa, nu = 0.3, restitution 0.5 (xi_con = 0.197), optionally sliding friction 0.5.
+#include "solver/insertion.hpp"
+#include "solver/scene.hpp"
+
+namespace bondem::bench {
+
+/// side x side x layers spheres.
+inline Scene lattice_scene(int side, int layers, bool friction) {
+  Case c;
+  c.source = "bench";
+  c.materials.push_back({"powder", 2000.0, 1.0e9, 0.3});
+  c.contact_damping = 0.197;
+  c.friction = friction ? 0.5 : 0.0;
+  c.bond.criterion = BondCriterion::kNever;
+  c.bond.equilibrium_overlap = 1e-6;
+  c.time_step = 5e-7;
+  c.gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
+  const double spacing = 0.001999;
+  const double length = side * spacing;
+  const Box region{Eigen::Vector3d::Zero(),
+                   Eigen::Vector3d(length, length, layers * spacing + 1e-6)};
+  c.particles = insert_lattice(region, spacing, 1e-3, 0);
+  Domain d;
+  d.max = Eigen::Vector3d(length, length, 2.0 * layers * spacing);
+  d.periodic = {true, true, false};
+  c.domain = d;
+  c.walls.push_back({Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 0, "floor"});
+  c.skin = 1e-4;
+  return build_scene(c);
+}
+
+}  // namespace bondem::bench
