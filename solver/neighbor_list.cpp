@@ -70,9 +70,9 @@ void NeighborList::bin(const Particles& p, const Domain& domain, double cell_siz
   for (std::size_t i = 0; i < n; ++i) ++cell_begin_[cell_of_[i] + 1];
   for (std::size_t c = 0; c < cell_count; ++c) cell_begin_[c + 1] += cell_begin_[c];
   cell_items_.resize(n);
-  std::vector<std::uint32_t> cursor(cell_begin_.begin(), cell_begin_.end() - 1);
+  cursor_.assign(cell_begin_.begin(), cell_begin_.end() - 1);
   for (std::size_t i = 0; i < n; ++i)
-    cell_items_[cursor[cell_of_[i]]++] = static_cast<std::uint32_t>(i);
+    cell_items_[cursor_[cell_of_[i]]++] = static_cast<std::uint32_t>(i);
 }
 
 void NeighborList::build(Particles& p, const Domain& domain, double skin, bool reorder) {
@@ -106,11 +106,18 @@ void NeighborList::build(Particles& p, const Domain& domain, double skin, bool r
 
   // Rows are built per particle in parallel into thread-local buffers, then concatenated in
   // particle order: the list is the same for any number of threads.
-  std::vector<std::uint32_t> row_count(n);
+  // Scratch buffers are members: rebuilds reuse their capacity instead of allocating each time.
+  std::vector<std::uint32_t>& row_count = row_count_;
+  row_count.resize(n);
   const int threads = omp_get_max_threads();
-  std::vector<std::vector<std::uint32_t>> local_second(static_cast<std::size_t>(threads));
-  std::vector<std::vector<std::uint8_t>> local_image(static_cast<std::size_t>(threads));
-  std::vector<std::size_t> local_first(static_cast<std::size_t>(threads), n);
+  std::vector<std::vector<std::uint32_t>>& local_second = local_second_;
+  std::vector<std::vector<std::uint8_t>>& local_image = local_image_;
+  std::vector<std::size_t>& local_first = local_first_;
+  local_second.resize(static_cast<std::size_t>(threads));
+  local_image.resize(static_cast<std::size_t>(threads));
+  for (auto& buffer : local_second) buffer.clear();
+  for (auto& buffer : local_image) buffer.clear();
+  local_first.assign(static_cast<std::size_t>(threads), n);
 #pragma omp parallel num_threads(threads) if (n >= kMinParallelParticles)
   {
     const auto t = static_cast<std::size_t>(omp_get_thread_num());
@@ -186,9 +193,9 @@ void NeighborList::build(Particles& p, const Domain& domain, double skin, bool r
   for (const std::uint32_t j : second) ++column_begin[j + 1];
   for (std::size_t i = 0; i < n; ++i) column_begin[i + 1] += column_begin[i];
   column_pair.resize(second.size());
-  std::vector<std::uint32_t> cursor(column_begin.begin(), column_begin.end() - 1);
+  cursor_.assign(column_begin.begin(), column_begin.end() - 1);
   for (std::size_t k = 0; k < second.size(); ++k) {
-    column_pair[cursor[second[k]]++] = static_cast<std::uint32_t>(k);
+    column_pair[cursor_[second[k]]++] = static_cast<std::uint32_t>(k);
   }
 
   x0_ = p.x;

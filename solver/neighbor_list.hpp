@@ -59,6 +59,11 @@ class NeighborList {
   std::vector<std::uint32_t> cell_begin_;  ///< size cells + 1
   std::vector<std::uint32_t> cell_items_;  ///< particles sorted by cell, by index within a cell
   std::vector<double> x0_, y0_, z0_;       ///< positions at the last build
+  // Scratch space of build(), kept so that rebuilds do not allocate once warmed up.
+  std::vector<std::uint32_t> cursor_, row_count_;
+  std::vector<std::vector<std::uint32_t>> local_second_;
+  std::vector<std::vector<std::uint8_t>> local_image_;
+  std::vector<std::size_t> local_first_;
 };
 
 }  // namespace bondem
