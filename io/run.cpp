@@ -32,6 +32,18 @@ std::string exact(double value) {
   return buffer;
 }
 
+/// Columns of history.csv; each wall and tool adds the force the particles exert on it.
+std::string history_header(const Scene& scene) {
+  std::string header =
+      "time,kinetic_energy,rotational_energy,contacts,bonds,wall_contacts,max_overlap";
+  const auto add_load = [&](const std::string& name) {
+    for (const char* axis : {"_x", "_y", "_z"}) header += ",load_" + name + axis;
+  };
+  for (const PlaneWall& wall : scene.walls) add_load(wall.name);
+  for (const Body& body : scene.bodies) add_load(body.name);
+  return header + '\n';
+}
+
 void write_final_state(const Particles& p, const std::string& path) {
   std::vector<std::size_t> order(p.size());
   std::iota(order.begin(), order.end(), std::size_t{0});
@@ -169,7 +181,7 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
   std::optional<Stepper> stepper_storage;
   if (options.restart_path.empty()) {
     stepper_storage.emplace(scene);
-    history << "time,kinetic_energy,contacts,bonds,wall_contacts,max_overlap\n";
+    history << history_header(scene);
   } else {
     Checkpoint restored;
     try {
@@ -208,8 +220,13 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
 
   const auto record = [&] {
     const ContactSummary& c = stepper.contacts();
-    history << exact(stepper.time()) << ',' << exact(stepper.kinetic_energy()) << ',' << c.contacts
-            << ',' << c.bonds << ',' << c.wall_contacts << ',' << exact(c.max_overlap) << '\n';
+    history << exact(stepper.time()) << ',' << exact(stepper.kinetic_energy()) << ','
+            << exact(stepper.rotational_energy()) << ',' << c.contacts << ',' << c.bonds << ','
+            << c.wall_contacts << ',' << exact(c.max_overlap);
+    for (const Eigen::Vector3d& load : stepper.wall_forces()) {
+      history << ',' << exact(load.x()) << ',' << exact(load.y()) << ',' << exact(load.z());
+    }
+    history << '\n';
   };
   const auto write_history = [&] {
     AtomicFile file((directory / "history.csv").string());

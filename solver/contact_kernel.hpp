@@ -132,11 +132,12 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
         out.fx[k] += t.force.x();
         out.fy[k] += t.force.y();
         out.fz[k] += t.force.z();
-        const double inertia_i = 1.0 / p.inv_inertia[i];
-        const double inertia_j = 1.0 / p.inv_inertia[j];
-        const Eigen::Vector3d rolling =
-            rolling_torque(coefficients.rolling_friction, r_star, load, spin_i - spin_j,
-                           inertia_i * inertia_j / (inertia_i + inertia_j), scene.time_step);
+        Eigen::Vector3d rolling = Eigen::Vector3d::Zero();
+        if (coefficients.rolling_friction != 0.0) {
+          // I* = I_i I_j / (I_i + I_j) = 1 / (1/I_i + 1/I_j)
+          rolling = rolling_torque(coefficients.rolling_friction, r_star, load, spin_i - spin_j,
+                                   1.0 / (p.inv_inertia[i] + p.inv_inertia[j]), scene.time_step);
+        }
         const Eigen::Vector3d torque_i = lever_i.cross(t.force) + rolling;
         const Eigen::Vector3d torque_j = lever_j.cross(-t.force) - rolling;
         out.ti_x[k] = torque_i.x();

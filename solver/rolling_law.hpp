@@ -15,8 +15,9 @@ namespace bondem {
 inline Eigen::Vector3d rolling_torque(double rolling_friction, double r_star, double load,
                                       const Eigen::Vector3d& relative_spin, double inertia,
                                       double dt) {
+  if (rolling_friction == 0.0) return Eigen::Vector3d::Zero();
   const double spin = relative_spin.norm();
-  if (spin == 0.0 || rolling_friction == 0.0) return Eigen::Vector3d::Zero();
+  if (spin == 0.0) return Eigen::Vector3d::Zero();
   const double magnitude = std::min(rolling_friction * r_star * load, inertia * spin / dt);
   return -magnitude / spin * relative_spin;
 }

@@ -264,4 +264,13 @@ double Stepper::kinetic_energy() const {
   return energy;
 }
 
+double Stepper::rotational_energy() const {
+  const Particles& p = scene_.particles;
+  double energy = 0.0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    energy += 0.5 / p.inv_inertia[i] * (p.wx[i] * p.wx[i] + p.wy[i] * p.wy[i] + p.wz[i] * p.wz[i]);
+  }
+  return energy;
+}
+
 }  // namespace bondem

@@ -75,6 +75,8 @@ class Stepper {
   std::vector<Eigen::Vector3d> wall_forces() const;
   /// Kinetic energy of translation, summed in index order [J].
   double kinetic_energy() const;
+  /// Kinetic energy of rotation, summed in index order [J].
+  double rotational_energy() const;
 
  private:
   void compute_forces();

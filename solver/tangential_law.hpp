@@ -34,15 +34,18 @@ inline TangentialForce tangential_force(double stiffness, double damping, double
                                         const Eigen::Vector3d& slip,
                                         const Eigen::Vector3d& sliding_velocity, double dt) {
   Eigen::Vector3d s = slip - slip.dot(normal) * normal;
-  const double before = slip.norm();
-  const double after = s.norm();
-  if (after > 0.0) s *= before / after;
+  // Rescale to the stored length; squared norms spare the square roots of a fresh contact
+  // (zero spring) and of a spring already in the plane.
+  const double before_sq = slip.squaredNorm();
+  const double after_sq = s.squaredNorm();
+  if (after_sq > 0.0 && after_sq != before_sq) s *= std::sqrt(before_sq / after_sq);
   s += sliding_velocity * dt;
   Eigen::Vector3d force = stiffness * s + damping * sliding_velocity;
   const double limit = friction * load;
-  const double magnitude = force.norm();
-  if (magnitude > limit) {
-    force *= magnitude > 0.0 ? limit / magnitude : 0.0;
+  const double magnitude_sq = force.squaredNorm();
+  if (magnitude_sq > limit * limit) {
+    const double magnitude = std::sqrt(magnitude_sq);
+    force *= limit / magnitude;
     s = stiffness > 0.0 ? Eigen::Vector3d(force / stiffness) : Eigen::Vector3d::Zero();
     return {force, s, true};
   }

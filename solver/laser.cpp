@@ -1,0 +1,182 @@
+#include "solver/laser.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+#include <utility>
+
+namespace bondem {
+
+namespace {
+
+/// Half-width of the deposit window in units of w: the power outside is 1 - erf(3 sqrt2)^2 ~ 4e-9.
+constexpr double kWindowHalfWidths = 3.0;
+/// Upper bound on columns per side of the window: 512^2 columns cost ~3 MB and a few ms.
+constexpr std::size_t kMaxColumnsPerSide = 512;
+constexpr std::size_t kNoOwner = std::numeric_limits<std::size_t>::max();
+
+double segment_duration(const LaserSegment& segment) {
+  if (!(segment.speed > 0.0) || !std::isfinite(segment.speed)) {
+    throw std::invalid_argument("laser segment speed must be a finite positive number");
+  }
+  return (segment.end - segment.start).norm() / segment.speed;
+}
+
+void check_beam(const Laser& laser) {
+  if (!(laser.spot_radius > 0.0) || !std::isfinite(laser.spot_radius)) {
+    throw std::invalid_argument("laser spot radius must be a finite positive number");
+  }
+  if (!(laser.power >= 0.0) || !std::isfinite(laser.power)) {
+    throw std::invalid_argument("laser power must be a finite non-negative number");
+  }
+  if (!(laser.absorptivity >= 0.0 && laser.absorptivity <= 1.0)) {
+    throw std::invalid_argument("laser absorptivity must lie in [0, 1]");
+  }
+}
+
+/// Fractions of the beam power on each of @p columns equal strips of width @p h that tile
+/// [-half, half] (coordinates relative to the beam centre). Each erf is evaluated once per strip
+/// edge, so the strips' fractions telescope to the window's fraction up to rounding.
+std::vector<double> strip_fractions(std::size_t columns, double h, double half, double w) {
+  std::vector<double> fraction(columns);
+  const double scale = std::numbers::sqrt2 / w;
+  double previous = std::erf(-scale * half);
+  for (std::size_t k = 0; k < columns; ++k) {
+    const double edge = -half + static_cast<double>(k + 1) * h;
+    const double current = std::erf(scale * edge);
+    fraction[k] = 0.5 * (current - previous);
+    previous = current;
+  }
+  return fraction;
+}
+
+/// Column indices [first, last] whose centres -half + (k + 1/2) h lie in [lo, hi]; first > last
+/// when there are none. Clamped in floating point first so a huge particle cannot overflow.
+std::pair<std::size_t, std::size_t> columns_in(double lo, double hi, double h, double half,
+                                               std::size_t columns) {
+  const double last_column = static_cast<double>(columns) - 1.0;
+  const double first = std::clamp(std::ceil((lo + half) / h - 0.5), 0.0, last_column + 1.0);
+  const double last = std::clamp(std::floor((hi + half) / h - 0.5), -1.0, last_column);
+  if (last < first) return {1, 0};
+  return {static_cast<std::size_t>(first), static_cast<std::size_t>(last)};
+}
+
+}  // namespace
+
+std::optional<Eigen::Vector2d> beam_centre(const Laser& laser, double time) {
+  double segment_start = laser.start_time;
+  if (!(time >= segment_start)) return std::nullopt;
+  for (const LaserSegment& segment : laser.path) {
+    const double duration = segment_duration(segment);
+    // Same expression as laser_end_time accumulates, so "off at the end time" holds exactly.
+    const double segment_end = segment_start + duration;
+    if (time < segment_end) {
+      const double s = (time - segment_start) / duration;
+      return Eigen::Vector2d(segment.start + s * (segment.end - segment.start));
+    }
+    segment_start = segment_end;
+  }
+  return std::nullopt;
+}
+
+double laser_end_time(const Laser& laser) {
+  double end = laser.start_time;
+  for (const LaserSegment& segment : laser.path) end = end + segment_duration(segment);
+  return end;
+}
+
+double beam_fraction(const Eigen::Vector2d& centre, double w, double x0, double x1, double y0,
+                     double y1) {
+  const double scale = std::numbers::sqrt2 / w;
+  const double fx = std::erf(scale * (x1 - centre.x())) - std::erf(scale * (x0 - centre.x()));
+  const double fy = std::erf(scale * (y1 - centre.y())) - std::erf(scale * (y0 - centre.y()));
+  return 0.25 * fx * fy;
+}
+
+LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* z,
+                                const double* radius, std::size_t n, const Laser& laser,
+                                double time, double* heat_rate) {
+  check_beam(laser);
+  const std::optional<Eigen::Vector2d> centre = beam_centre(laser, time);
+  if (!centre) return {};
+  const double w = laser.spot_radius;
+  const double half = kWindowHalfWidths * w;
+
+  // Particles whose disc reaches into the window; index order makes ties go to the smaller index.
+  // Coordinates are taken relative to the beam centre so column geometry keeps full precision.
+  std::vector<std::size_t> candidates;
+  double r_min = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < n; ++i) {
+    const double r = radius[i];
+    if (!(r > 0.0)) continue;
+    if (std::abs(x[i] - centre->x()) < half + r && std::abs(y[i] - centre->y()) < half + r) {
+      candidates.push_back(i);
+      r_min = std::min(r_min, r);
+    }
+  }
+
+  // Columns resolve both the beam (w / 8) and the smallest visible particle (r_min / 6: against a
+  // fine-grid oracle one particle's share is then within about 0.02 P; r_min / 3 gave 0.07 P).
+  // The count is rounded up so that they tile the window exactly.
+  const double target = std::min(w / 8.0, r_min / 6.0);
+  const double wanted = std::ceil(2.0 * half / target);
+  const std::size_t columns = wanted >= static_cast<double>(kMaxColumnsPerSide)
+                                  ? kMaxColumnsPerSide
+                                  : std::max<std::size_t>(1, static_cast<std::size_t>(wanted));
+  const double h = 2.0 * half / static_cast<double>(columns);
+
+  // Highest sphere surface over each column centre, splatted particle by particle.
+  std::vector<double> top(columns * columns, -std::numeric_limits<double>::infinity());
+  std::vector<std::size_t> owner(columns * columns, kNoOwner);
+  for (std::size_t slot = 0; slot < candidates.size(); ++slot) {
+    const std::size_t i = candidates[slot];
+    const double px = x[i] - centre->x();
+    const double py = y[i] - centre->y();
+    const double r = radius[i];
+    const double r2 = r * r;
+    const auto [col_first, col_last] = columns_in(px - r, px + r, h, half, columns);
+    const auto [row_first, row_last] = columns_in(py - r, py + r, h, half, columns);
+    for (std::size_t row = row_first; row <= row_last; ++row) {
+      const double dy = -half + (static_cast<double>(row) + 0.5) * h - py;
+      for (std::size_t col = col_first; col <= col_last; ++col) {
+        const double dx = -half + (static_cast<double>(col) + 0.5) * h - px;
+        const double d2 = dx * dx + dy * dy;
+        if (!(d2 < r2)) continue;
+        const double height = z[i] + std::sqrt(r2 - d2);
+        const std::size_t c = row * columns + col;
+        // Strictly higher only: an equal top keeps the earlier (smaller-index) owner.
+        if (height > top[c]) {
+          top[c] = height;
+          owner[c] = slot;
+        }
+      }
+    }
+  }
+
+  // A column's share is its rectangle's beam_fraction, factored as (x strip) x (y strip).
+  const std::vector<double> fraction = strip_fractions(columns, h, half, w);
+  const double absorbed_power = laser.absorptivity * laser.power;
+  std::vector<double> gained(candidates.size(), 0.0);
+  LaserDeposit deposit;
+  for (std::size_t row = 0; row < columns; ++row) {
+    const double row_power = absorbed_power * fraction[row];
+    for (std::size_t col = 0; col < columns; ++col) {
+      const double share = row_power * fraction[col];
+      const std::size_t slot = owner[row * columns + col];
+      if (slot == kNoOwner) {
+        deposit.missed += share;
+      } else {
+        gained[slot] += share;
+        deposit.absorbed += share;
+      }
+    }
+  }
+  for (std::size_t slot = 0; slot < candidates.size(); ++slot) {
+    heat_rate[candidates[slot]] += gained[slot];
+  }
+  return deposit;
+}
+
+}  // namespace bondem
