@@ -14,6 +14,7 @@ struct PlaneWall {
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  ///< unit, into the domain
   int material = 0;                                   ///< index into the case's materials
   std::string name;                                   ///< for reports, e.g. "box.z_min"
+  double temperature = 0.0;  ///< held temperature [K] for heat exchange; 0: adiabatic
 };
 
 /// Signed distance of point (x, y, z) from the wall, positive on the particle side.

@@ -15,6 +15,9 @@ enum class BondCriterion {
   kAlways,    ///< every pair past the critical overlap bonds
   kNever,     ///< pure damped Hertz, no adhesion
   kPairFlag,  ///< the caller decides per pair (e.g. both particles above a melt temperature)
+  /// Both particles at or above the bonding temperature; a bond so formed persists (the neck has
+  /// solidified) until its overlap falls back to delta_crit.
+  kTemperature,
 };
 
 /// True when the adhesive term may act for a pair whose caller-supplied flag is @p pair_flag.
@@ -25,6 +28,7 @@ constexpr bool criterion_holds(BondCriterion criterion, bool pair_flag) {
     case BondCriterion::kNever:
       return false;
     case BondCriterion::kPairFlag:
+    case BondCriterion::kTemperature:
       return pair_flag;
   }
   return false;

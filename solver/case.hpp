@@ -12,6 +12,7 @@
 #include "geometry/domain.hpp"
 #include "geometry/walls.hpp"
 #include "solver/bond_law.hpp"
+#include "solver/laser.hpp"
 #include "solver/layer_metrics.hpp"
 #include "solver/pair.hpp"
 
@@ -23,6 +24,10 @@ struct Material {
   double density = 0.0;         ///< rho [kg/m^3]
   double youngs_modulus = 0.0;  ///< E [Pa]
   double poisson_ratio = 0.0;   ///< nu [-]
+  // Thermal properties, used when the case has a `thermal:` block.
+  double specific_heat = 0.0;         ///< c_p [J/(kg K)]
+  double thermal_conductivity = 0.0;  ///< k [W/(m K)]
+  double emissivity = 0.0;            ///< grey-body emissivity [-], for radiation
 };
 
 /// Bond parameters of the case (`bond:` block).
@@ -33,6 +38,15 @@ struct BondModel {
   double equilibrium_overlap = 0.0;  ///< delta_eq [m] when input == kEquilibriumOverlap
   double damping_ratio = 0.0;        ///< xi_bond
   BondCriterion criterion = BondCriterion::kAlways;
+  double temperature = 0.0;  ///< bonding temperature [K] of criterion kTemperature
+};
+
+/// Lumped heat transfer (`thermal:` block): m c_p dT/dt = sum of the heat flows into a particle.
+struct ThermalModel {
+  double initial_temperature = 293.15;  ///< [K] of particles not given their own
+  double ambient_temperature = 293.15;  ///< [K] of the gas and the surroundings
+  double convection_coefficient = 0.0;  ///< h [W/(m^2 K)] from each particle's surface to ambient
+  bool radiation = false;  ///< grey-body radiation to ambient with each material's emissivity
 };
 
 /// One explicitly listed particle.
@@ -41,6 +55,7 @@ struct ParticleSpec {
   double radius = 0.0;
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+  double temperature = 293.15;  ///< [K]; the reader fills in the thermal initial temperature
 };
 
 /// Everything a run needs, validated: the output of the case-file reader.
@@ -65,6 +80,8 @@ struct Case {
   double checkpoint_interval = 0.0;  ///< [s] between checkpoints; 0: only at the end
   double vtk_interval = 0.0;         ///< [s] between VTK frames; 0: no VTK output
   double history_interval = 0.0;     ///< [s] between history rows; 0 picks end / 100
+  std::optional<ThermalModel> thermal;  ///< absent: no temperatures are tracked
+  std::optional<Laser> laser;           ///< a moving heat source (needs `thermal`)
   /// Region whose particle centres define the reported bed solid fraction and coordination.
   std::optional<Box> analysis_region;
   /// Spread layer to measure at the end (solid fraction profile, roughness, bare substrate).

@@ -68,89 +68,117 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
   std::size_t bonds = 0;
   double max_overlap = 0.0;
   double max_fraction = 0.0;
+  // Pairs go in blocks: a short first loop takes every pair's distance (a square root and a
+  // division per pair, independent across pairs, so they overlap in the pipeline), then the laws
+  // run on the stored geometry. One long loop body would serialise those latencies.
+  constexpr std::size_t kChunk = 64;     // particles per scheduling unit
+  constexpr std::uint32_t kBlock = 128;  // pairs per geometry block
+  const std::size_t chunks = (n + kChunk - 1) / kChunk;
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) \
     reduction(+ : contacts, bonds) reduction(max : max_overlap, max_fraction)
-  for (std::size_t i = 0; i < n; ++i) {
-    for (std::uint32_t k = list.row_begin[i]; k < list.row_begin[i + 1]; ++k) {
-      const std::size_t j = list.second[k];
-      const Eigen::Vector3d& shift = list.shifts[list.image[k]];
-      const double dx = p.x[j] - p.x[i] + shift.x();
-      const double dy = p.y[j] - p.y[i] + shift.y();
-      const double dz = p.z[j] - p.z[i] + shift.z();
-      const double distance_sq = dx * dx + dy * dy + dz * dz;
-      const double reach = p.radius[i] + p.radius[j];
-      if (distance_sq >= reach * reach) {
-        out.fx[k] = out.fy[k] = out.fz[k] = 0.0;
-        out.bonded[k] = 0;
+  for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
+    std::uint32_t first_of[kBlock];
+    double overlap_of[kBlock], nx_of[kBlock], ny_of[kBlock], nz_of[kBlock];
+    double r_star_of[kBlock], m_star_of[kBlock];
+    const std::size_t chunk_end = std::min(n, (chunk + 1) * kChunk);
+    std::size_t row = chunk * kChunk;
+    const std::uint32_t pairs_end = list.row_begin[chunk_end];
+    for (std::uint32_t block = list.row_begin[row]; block < pairs_end; block += kBlock) {
+      const std::uint32_t block_end = std::min(pairs_end, block + kBlock);
+      for (std::uint32_t k = block; k < block_end; ++k) {
+        while (list.row_begin[row + 1] <= k) ++row;
+        const std::size_t i = row;
+        const std::size_t j = list.second[k];
+        const Eigen::Vector3d& shift = list.shifts[list.image[k]];
+        const double dx = p.x[j] - p.x[i] + shift.x();
+        const double dy = p.y[j] - p.y[i] + shift.y();
+        const double dz = p.z[j] - p.z[i] + shift.z();
+        const double distance = std::sqrt(dx * dx + dy * dy + dz * dz);
+        const double inv_distance = 1.0 / distance;
+        first_of[k - block] = static_cast<std::uint32_t>(i);
+        overlap_of[k - block] = p.radius[i] + p.radius[j] - distance;
+        nx_of[k - block] = dx * inv_distance;
+        ny_of[k - block] = dy * inv_distance;
+        nz_of[k - block] = dz * inv_distance;
+        r_star_of[k - block] = effective_radius(p.radius[i], p.radius[j]);
+        m_star_of[k - block] = effective_mass(p.mass[i], p.mass[j]);
+      }
+      for (std::uint32_t k = block; k < block_end; ++k) {
+        const std::size_t i = first_of[k - block];
+        const std::size_t j = list.second[k];
+        const double overlap = overlap_of[k - block];
+        if (!(overlap > 0.0)) {
+          out.fx[k] = out.fy[k] = out.fz[k] = 0.0;
+          out.bonded[k] = 0;
+          if constexpr (kFriction) {
+            out.ti_x[k] = out.ti_y[k] = out.ti_z[k] = out.tj_x[k] = out.tj_y[k] = out.tj_z[k] = 0.0;
+            history.sx[k] = history.sy[k] = history.sz[k] = 0.0;  // contact lost: spring released
+          }
+          continue;
+        }
+        const double nx = nx_of[k - block];
+        const double ny = ny_of[k - block];
+        const double nz = nz_of[k - block];
+        const double overlap_rate =
+            -((p.vx[j] - p.vx[i]) * nx + (p.vy[j] - p.vy[i]) * ny + (p.vz[j] - p.vz[i]) * nz);
+        const PairCoefficients& coefficients = scene.pair(p.material[i], p.material[j]);
+        const double r_star = r_star_of[k - block];
+        const double m_star = m_star_of[k - block];
+        const BondPair law = make_bond_pair(coefficients, r_star, m_star);
+        const NormalForce f =
+            normal_force(law, adhesion, overlap, overlap_rate, criterion_met(i, j));
+        out.fx[k] = f.force * nx;
+        out.fy[k] = f.force * ny;
+        out.fz[k] = f.force * nz;
+        out.bonded[k] = f.bonded ? 1 : 0;
         if constexpr (kFriction) {
-          out.ti_x[k] = out.ti_y[k] = out.ti_z[k] = out.tj_x[k] = out.tj_y[k] = out.tj_z[k] = 0.0;
-          history.sx[k] = history.sy[k] = history.sz[k] = 0.0;  // contact lost: spring released
+          const Eigen::Vector3d normal(nx, ny, nz);
+          // Levers from each centre to the contact point, the middle of the overlap.
+          const Eigen::Vector3d lever_i = (p.radius[i] - 0.5 * overlap) * normal;
+          const Eigen::Vector3d lever_j = -(p.radius[j] - 0.5 * overlap) * normal;
+          const Eigen::Vector3d spin_i(p.wx[i], p.wy[i], p.wz[i]);
+          const Eigen::Vector3d spin_j(p.wx[j], p.wy[j], p.wz[j]);
+          const Eigen::Vector3d contact_velocity =
+              Eigen::Vector3d(p.vx[j], p.vy[j], p.vz[j]) + spin_j.cross(lever_j) -
+              Eigen::Vector3d(p.vx[i], p.vy[i], p.vz[i]) - spin_i.cross(lever_i);
+          const Eigen::Vector3d sliding = contact_velocity - contact_velocity.dot(normal) * normal;
+          const double k_t =
+              mindlin_stiffness(coefficients.shear_modulus, std::sqrt(r_star) * std::sqrt(overlap));
+          const double d_t = 2.0 * coefficients.contact_damping * std::sqrt(m_star * k_t);
+          // A bond presses the surfaces together with its Hertz part even where the net normal
+          // force vanishes (at delta_eq): that load, not the net force, limits its friction.
+          const double load = f.bonded ? law.hertz_stiffness * overlap * std::sqrt(overlap)
+                                       : std::max(0.0, -f.force);
+          const TangentialForce t =
+              tangential_force(k_t, d_t, coefficients.friction, load, normal,
+                               Eigen::Vector3d(history.sx[k], history.sy[k], history.sz[k]),
+                               sliding, scene.time_step);
+          history.sx[k] = t.slip.x();
+          history.sy[k] = t.slip.y();
+          history.sz[k] = t.slip.z();
+          out.fx[k] += t.force.x();
+          out.fy[k] += t.force.y();
+          out.fz[k] += t.force.z();
+          Eigen::Vector3d rolling = Eigen::Vector3d::Zero();
+          if (coefficients.rolling_friction != 0.0) {
+            // I* = I_i I_j / (I_i + I_j) = 1 / (1/I_i + 1/I_j)
+            rolling = rolling_torque(coefficients.rolling_friction, r_star, load, spin_i - spin_j,
+                                     1.0 / (p.inv_inertia[i] + p.inv_inertia[j]), scene.time_step);
+          }
+          const Eigen::Vector3d torque_i = lever_i.cross(t.force) + rolling;
+          const Eigen::Vector3d torque_j = lever_j.cross(-t.force) - rolling;
+          out.ti_x[k] = torque_i.x();
+          out.ti_y[k] = torque_i.y();
+          out.ti_z[k] = torque_i.z();
+          out.tj_x[k] = torque_j.x();
+          out.tj_y[k] = torque_j.y();
+          out.tj_z[k] = torque_j.z();
         }
-        continue;
+        ++contacts;
+        bonds += f.bonded ? 1 : 0;
+        max_overlap = std::max(max_overlap, overlap);
+        max_fraction = std::max(max_fraction, overlap / std::min(p.radius[i], p.radius[j]));
       }
-      const double distance = std::sqrt(distance_sq);
-      const double overlap = reach - distance;
-      const double inv_distance = 1.0 / distance;
-      const double nx = dx * inv_distance;
-      const double ny = dy * inv_distance;
-      const double nz = dz * inv_distance;
-      // delta-dot = -(v_j - v_i) . n_ij: positive while approaching.
-      const double overlap_rate =
-          -((p.vx[j] - p.vx[i]) * nx + (p.vy[j] - p.vy[i]) * ny + (p.vz[j] - p.vz[i]) * nz);
-      const PairCoefficients& coefficients = scene.pair(p.material[i], p.material[j]);
-      const double r_star = effective_radius(p.radius[i], p.radius[j]);
-      const double m_star = effective_mass(p.mass[i], p.mass[j]);
-      const BondPair law = make_bond_pair(coefficients, r_star, m_star);
-      const NormalForce f = normal_force(law, adhesion, overlap, overlap_rate, criterion_met(i, j));
-      out.fx[k] = f.force * nx;
-      out.fy[k] = f.force * ny;
-      out.fz[k] = f.force * nz;
-      out.bonded[k] = f.bonded ? 1 : 0;
-      if constexpr (kFriction) {
-        const Eigen::Vector3d normal(nx, ny, nz);
-        // Levers from each centre to the contact point, the middle of the overlap.
-        const Eigen::Vector3d lever_i = (p.radius[i] - 0.5 * overlap) * normal;
-        const Eigen::Vector3d lever_j = -(p.radius[j] - 0.5 * overlap) * normal;
-        const Eigen::Vector3d spin_i(p.wx[i], p.wy[i], p.wz[i]);
-        const Eigen::Vector3d spin_j(p.wx[j], p.wy[j], p.wz[j]);
-        const Eigen::Vector3d contact_velocity =
-            Eigen::Vector3d(p.vx[j], p.vy[j], p.vz[j]) + spin_j.cross(lever_j) -
-            Eigen::Vector3d(p.vx[i], p.vy[i], p.vz[i]) - spin_i.cross(lever_i);
-        const Eigen::Vector3d sliding = contact_velocity - contact_velocity.dot(normal) * normal;
-        const double k_t = mindlin_stiffness(coefficients.shear_modulus, r_star, overlap);
-        const double d_t = 2.0 * coefficients.contact_damping * std::sqrt(m_star * k_t);
-        // A bond presses the surfaces together with its Hertz part even where the net normal
-        // force vanishes (at delta_eq): that load, not the net force, limits its friction.
-        const double load =
-            f.bonded ? law.hertz_stiffness * overlap * std::sqrt(overlap) : std::max(0.0, -f.force);
-        const TangentialForce t = tangential_force(
-            k_t, d_t, coefficients.friction, load, normal,
-            Eigen::Vector3d(history.sx[k], history.sy[k], history.sz[k]), sliding, scene.time_step);
-        history.sx[k] = t.slip.x();
-        history.sy[k] = t.slip.y();
-        history.sz[k] = t.slip.z();
-        out.fx[k] += t.force.x();
-        out.fy[k] += t.force.y();
-        out.fz[k] += t.force.z();
-        Eigen::Vector3d rolling = Eigen::Vector3d::Zero();
-        if (coefficients.rolling_friction != 0.0) {
-          // I* = I_i I_j / (I_i + I_j) = 1 / (1/I_i + 1/I_j)
-          rolling = rolling_torque(coefficients.rolling_friction, r_star, load, spin_i - spin_j,
-                                   1.0 / (p.inv_inertia[i] + p.inv_inertia[j]), scene.time_step);
-        }
-        const Eigen::Vector3d torque_i = lever_i.cross(t.force) + rolling;
-        const Eigen::Vector3d torque_j = lever_j.cross(-t.force) - rolling;
-        out.ti_x[k] = torque_i.x();
-        out.ti_y[k] = torque_i.y();
-        out.ti_z[k] = torque_i.z();
-        out.tj_x[k] = torque_j.x();
-        out.tj_y[k] = torque_j.y();
-        out.tj_z[k] = torque_j.z();
-      }
-      ++contacts;
-      bonds += f.bonded ? 1 : 0;
-      max_overlap = std::max(max_overlap, overlap);
-      max_fraction = std::max(max_fraction, overlap / std::min(p.radius[i], p.radius[j]));
     }
   }
   return {contacts, bonds, 0, max_overlap, max_fraction};
@@ -195,7 +223,8 @@ double surface_contact(Particles& p, const Scene& scene, int material, std::size
     const Eigen::Vector3d spin(p.wx[i], p.wy[i], p.wz[i]);
     const Eigen::Vector3d contact_velocity = surface_velocity - (velocity + spin.cross(lever));
     const Eigen::Vector3d sliding = contact_velocity - contact_velocity.dot(n_ij) * n_ij;
-    const double k_t = mindlin_stiffness(c.shear_modulus, p.radius[i], overlap);
+    const double k_t =
+        mindlin_stiffness(c.shear_modulus, std::sqrt(p.radius[i]) * std::sqrt(overlap));
     const double d_t = 2.0 * c.contact_damping * std::sqrt(p.mass[i] * k_t);
     const TangentialForce t =
         tangential_force(k_t, d_t, c.friction, -f_n, n_ij,

@@ -52,6 +52,7 @@ ContactSummary Stepper::dispatch_criterion(Adhesion adhesion) {
       return compute_pair_forces<kFriction>(
           p, scene_, list_, adhesion, [](std::size_t, std::size_t) { return false; }, pair_forces_,
           history_);
+    case BondCriterion::kTemperature:  // placeholder until the thermal stepper lands
     case BondCriterion::kPairFlag:
       return compute_pair_forces<kFriction>(
           p, scene_, list_, adhesion,

@@ -15,9 +15,10 @@ struct TangentialForce {
   bool sliding;           ///< the Coulomb limit was reached
 };
 
-/// Mindlin no-slip stiffness k_t = 8 G* a with contact radius a = sqrt(r* delta) [N/m].
-inline double mindlin_stiffness(double shear_modulus_star, double r_star, double overlap) {
-  return 8.0 * shear_modulus_star * std::sqrt(r_star * overlap);
+/// Mindlin no-slip stiffness k_t = 8 G* a for a contact of radius a = sqrt(r* delta) [N/m].
+/// Callers pass a as sqrt(r*) sqrt(delta): both roots are already taken for the normal law.
+inline double mindlin_stiffness(double shear_modulus_star, double contact_radius) {
+  return 8.0 * shear_modulus_star * contact_radius;
 }
 
 /// Cundall-Strack tangential spring with history.
