@@ -88,6 +88,15 @@ class Reader {
     return value;
   }
 
+  /// A number in [0, 1] (absorptivity, emissivity).
+  double fraction(const YAML::Node& node, const std::string& path) const {
+    const double value = number(node, path);
+    if (!(value >= 0.0 && value <= 1.0)) {
+      fail(node, path, "must lie in [0, 1], got " + node.Scalar());
+    }
+    return value;
+  }
+
   long long integer(const YAML::Node& node, const std::string& path, long long lo,
                     long long hi) const {
     if (!node.IsScalar()) fail(node, path, "expected a whole number");
@@ -120,6 +129,14 @@ class Reader {
     if (!node.IsSequence() || node.size() != 3) fail(node, path, "expected a list [x, y, z]");
     Eigen::Vector3d v;
     for (std::size_t k = 0; k < 3; ++k)
+      v[static_cast<Eigen::Index>(k)] = number(node[k], join(path, k));
+    return v;
+  }
+
+  Eigen::Vector2d vector2(const YAML::Node& node, const std::string& path) const {
+    if (!node.IsSequence() || node.size() != 2) fail(node, path, "expected a list [x, y]");
+    Eigen::Vector2d v;
+    for (std::size_t k = 0; k < 2; ++k)
       v[static_cast<Eigen::Index>(k)] = number(node[k], join(path, k));
     return v;
   }
@@ -196,7 +213,91 @@ BondCriterion criterion_from(const Reader& reader, const YAML::Node& node,
   const std::string name = reader.text(node, path);
   if (name == "always") return BondCriterion::kAlways;
   if (name == "never") return BondCriterion::kNever;
-  reader.fail(node, path, "unknown criterion '" + name + "' (expected always or never)");
+  if (name == "temperature") return BondCriterion::kTemperature;
+  reader.fail(node, path,
+              "unknown criterion '" + name + "' (expected always, never or temperature)");
+}
+
+/// The one message for a key that only means something when temperatures are tracked.
+[[noreturn]] void fail_without_thermal(const Reader& reader, const YAML::Node& node,
+                                       const std::string& path) {
+  reader.fail(node, path, "needs a thermal: block (without one no temperatures are tracked)");
+}
+
+/// Initial temperature of the particles of an entry with an optional `temperature` key: its own
+/// value, else the thermal block's initial temperature, else the ParticleSpec default.
+double particle_temperature(const Reader& reader, const Case& c, const YAML::Node& body,
+                            const std::string& path) {
+  const YAML::Node temperature = body["temperature"];
+  if (!temperature) return c.thermal ? c.thermal->initial_temperature : ParticleSpec{}.temperature;
+  if (!c.thermal) fail_without_thermal(reader, temperature, path + ".temperature");
+  return reader.positive(temperature, path + ".temperature");
+}
+
+/// Held temperature of a wall (`temperature` key), or 0 (adiabatic) when it has none.
+double wall_temperature(const Reader& reader, const Case& c, const YAML::Node& body,
+                        const std::string& path) {
+  const YAML::Node temperature = body["temperature"];
+  if (!temperature) return 0.0;
+  if (!c.thermal) fail_without_thermal(reader, temperature, path + ".temperature");
+  return reader.positive(temperature, path + ".temperature");
+}
+
+ThermalModel read_thermal(const Reader& reader, const YAML::Node& node) {
+  const std::string path = "thermal";
+  reader.expect_map(node, path);
+  reader.check_keys(
+      node, path,
+      {"initial_temperature", "ambient_temperature", "convection_coefficient", "radiation"});
+  ThermalModel t;
+  if (const YAML::Node initial = node["initial_temperature"]) {
+    t.initial_temperature = reader.positive(initial, path + ".initial_temperature");
+  }
+  if (const YAML::Node ambient = node["ambient_temperature"]) {
+    t.ambient_temperature = reader.positive(ambient, path + ".ambient_temperature");
+  }
+  if (const YAML::Node h = node["convection_coefficient"]) {
+    t.convection_coefficient = reader.non_negative(h, path + ".convection_coefficient");
+  }
+  if (const YAML::Node radiation = node["radiation"]) {
+    t.radiation = reader.boolean(radiation, path + ".radiation");
+  }
+  return t;
+}
+
+Laser read_laser(const Reader& reader, const YAML::Node& node) {
+  const std::string path = "laser";
+  reader.expect_map(node, path);
+  reader.check_keys(node, path, {"power", "spot_radius", "absorptivity", "start_time", "path"});
+  Laser laser{};
+  laser.power = reader.non_negative(reader.require(node, path, "power"), path + ".power");
+  laser.spot_radius =
+      reader.positive(reader.require(node, path, "spot_radius"), path + ".spot_radius");
+  laser.absorptivity =
+      reader.fraction(reader.require(node, path, "absorptivity"), path + ".absorptivity");
+  if (const YAML::Node start = node["start_time"]) {
+    laser.start_time = reader.non_negative(start, path + ".start_time");
+  }
+  const std::string list_path = path + ".path";
+  const YAML::Node segments = reader.require(node, path, "path");
+  if (!segments.IsSequence()) {
+    reader.fail(segments, list_path,
+                "expected a list of segments {from: [x, y], to: [x, y], speed: v}");
+  }
+  if (segments.size() == 0) reader.fail(segments, list_path, "needs at least one segment");
+  for (std::size_t k = 0; k < segments.size(); ++k) {
+    const YAML::Node segment = segments[k];
+    const std::string segment_path = Reader::join(list_path, k);
+    reader.expect_map(segment, segment_path);
+    reader.check_keys(segment, segment_path, {"from", "to", "speed"});
+    LaserSegment s;
+    s.start = reader.vector2(reader.require(segment, segment_path, "from"), segment_path + ".from");
+    s.end = reader.vector2(reader.require(segment, segment_path, "to"), segment_path + ".to");
+    s.speed =
+        reader.positive(reader.require(segment, segment_path, "speed"), segment_path + ".speed");
+    laser.path.push_back(s);
+  }
+  return laser;
 }
 
 int material_index(const Reader& reader, const Case& c, const YAML::Node& body,
@@ -302,7 +403,7 @@ void read_walls(const Reader& reader, Case& c, const YAML::Node& walls) {
     const YAML::Node type = reader.require(body, path, "type");
     const std::string kind = reader.text(type, path + ".type");
     if (kind == "plane") {
-      reader.check_keys(body, path, {"type", "point", "normal", "material", "name"});
+      reader.check_keys(body, path, {"type", "point", "normal", "material", "name", "temperature"});
       PlaneWall wall;
       wall.point = reader.vector3(reader.require(body, path, "point"), path + ".point");
       const YAML::Node normal = reader.require(body, path, "normal");
@@ -311,9 +412,11 @@ void read_walls(const Reader& reader, Case& c, const YAML::Node& walls) {
       wall.normal.normalize();
       wall.material = material_index(reader, c, body, path);
       wall.name = body["name"] ? reader.text(body["name"], path + ".name") : path;
+      wall.temperature = wall_temperature(reader, c, body, path);
       c.walls.push_back(wall);
     } else if (kind == "box") {
-      reader.check_keys(body, path, {"type", "min", "max", "material", "open", "name"});
+      reader.check_keys(body, path,
+                        {"type", "min", "max", "material", "open", "name", "temperature"});
       const Eigen::Vector3d lo = reader.vector3(reader.require(body, path, "min"), path + ".min");
       const Eigen::Vector3d hi = reader.vector3(reader.require(body, path, "max"), path + ".max");
       if (!(hi.array() > lo.array()).all()) {
@@ -335,8 +438,9 @@ void read_walls(const Reader& reader, Case& c, const YAML::Node& walls) {
         }
       }
       const std::string name = body["name"] ? reader.text(body["name"], path + ".name") : path;
-      for (const PlaneWall& wall :
-           box_walls(lo, hi, material_index(reader, c, body, path), open, name)) {
+      const double temperature = wall_temperature(reader, c, body, path);
+      for (PlaneWall& wall : box_walls(lo, hi, material_index(reader, c, body, path), open, name)) {
+        wall.temperature = temperature;
         c.walls.push_back(wall);
       }
     } else if (kind == "blade" || kind == "roller") {
@@ -476,8 +580,9 @@ void read_insertions(const Reader& reader, Case& c, const YAML::Node& insert) {
     Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
     try {
       if (kind == "lattice") {
-        reader.check_keys(body, path,
-                          {"type", "region", "spacing", "radius", "material", "velocity"});
+        reader.check_keys(
+            body, path,
+            {"type", "region", "spacing", "radius", "material", "velocity", "temperature"});
         const Box region = read_box(reader, reader.require(body, path, "region"), path + ".region");
         const double spacing =
             reader.positive(reader.require(body, path, "spacing"), path + ".spacing");
@@ -487,7 +592,7 @@ void read_insertions(const Reader& reader, Case& c, const YAML::Node& insert) {
       } else if (kind == "random") {
         reader.check_keys(body, path,
                           {"type", "region", "material", "count", "solid_fraction", "radius",
-                           "seed", "velocity", "max_attempts"});
+                           "seed", "velocity", "max_attempts", "temperature"});
         FillRequest request;
         request.region = read_box(reader, reader.require(body, path, "region"), path + ".region");
         request.material = material_index(reader, c, body, path);
@@ -522,8 +627,10 @@ void read_insertions(const Reader& reader, Case& c, const YAML::Node& insert) {
       reader.fail(body, path, e.what());
     }
     if (const YAML::Node v = body["velocity"]) velocity = reader.vector3(v, path + ".velocity");
+    const double temperature = particle_temperature(reader, c, body, path);
     for (ParticleSpec& p : added) {
       p.velocity = velocity;
+      p.temperature = temperature;
       check_inside(reader, c, p, body, path);
       c.particles.push_back(p);
     }
@@ -535,9 +642,10 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
   c.source = reader.source();
   if (!root || root.IsNull()) reader.fail(root, "", "the file is empty");
   reader.expect_map(root, "");
-  reader.check_keys(root, "",
-                    {"description", "materials", "contact", "bond", "time", "gravity", "particles",
-                     "insert", "domain", "walls", "neighbors", "output", "analysis"});
+  reader.check_keys(
+      root, "",
+      {"description", "materials", "contact", "bond", "time", "gravity", "particles", "insert",
+       "domain", "walls", "neighbors", "output", "analysis", "thermal", "laser", "limits"});
 
   const YAML::Node materials = reader.require(root, "", "materials");
   reader.expect_map(materials, "materials");
@@ -548,7 +656,9 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
     const std::string path = Reader::join("materials", m.name);
     const YAML::Node& body = entry.second;
     reader.expect_map(body, path);
-    reader.check_keys(body, path, {"density", "youngs_modulus", "poisson_ratio"});
+    reader.check_keys(body, path,
+                      {"density", "youngs_modulus", "poisson_ratio", "specific_heat",
+                       "thermal_conductivity", "emissivity"});
     m.density = reader.positive(reader.require(body, path, "density"), path + ".density");
     m.youngs_modulus =
         reader.positive(reader.require(body, path, "youngs_modulus"), path + ".youngs_modulus");
@@ -556,6 +666,17 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
     m.poisson_ratio = reader.number(nu, path + ".poisson_ratio");
     if (!(m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5)) {
       reader.fail(nu, path + ".poisson_ratio", "must lie in (-1, 0.5), got " + nu.Scalar());
+    }
+    // Thermal properties may be given without a thermal block (a shared material list); they are
+    // then unused. Whether c_p is needed is checked once the particles are known.
+    if (const YAML::Node cp = body["specific_heat"]) {
+      m.specific_heat = reader.positive(cp, path + ".specific_heat");
+    }
+    if (const YAML::Node k = body["thermal_conductivity"]) {
+      m.thermal_conductivity = reader.non_negative(k, path + ".thermal_conductivity");
+    }
+    if (const YAML::Node emissivity = body["emissivity"]) {
+      m.emissivity = reader.fraction(emissivity, path + ".emissivity");
     }
     c.materials.push_back(m);
   }
@@ -572,10 +693,18 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
   c.contact_damping = reader.non_negative(reader.require(contact, "contact", "damping_ratio"),
                                           "contact.damping_ratio");
 
+  // Read first: whether temperatures are tracked decides which other keys are allowed.
+  if (const YAML::Node thermal = root["thermal"]) c.thermal = read_thermal(reader, thermal);
+  if (const YAML::Node laser = root["laser"]) {
+    if (!c.thermal) fail_without_thermal(reader, laser, "laser");
+    c.laser = read_laser(reader, laser);
+  }
+
   if (const YAML::Node bond = root["bond"]) {
     reader.expect_map(bond, "bond");
-    reader.check_keys(bond, "bond",
-                      {"alpha", "stiffness", "equilibrium_overlap", "damping_ratio", "criterion"});
+    reader.check_keys(
+        bond, "bond",
+        {"alpha", "stiffness", "equilibrium_overlap", "damping_ratio", "criterion", "temperature"});
     const YAML::Node alpha = reader.require(bond, "bond", "alpha");
     c.bond.alpha = reader.number(alpha, "bond.alpha");
     if (!(c.bond.alpha >= 0.0 && c.bond.alpha < 1.5)) {
@@ -602,8 +731,20 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
     }
     c.bond.damping_ratio =
         reader.non_negative(reader.require(bond, "bond", "damping_ratio"), "bond.damping_ratio");
-    c.bond.criterion =
-        criterion_from(reader, reader.require(bond, "bond", "criterion"), "bond.criterion");
+    const YAML::Node criterion = reader.require(bond, "bond", "criterion");
+    c.bond.criterion = criterion_from(reader, criterion, "bond.criterion");
+    const YAML::Node temperature = bond["temperature"];
+    if (c.bond.criterion == BondCriterion::kTemperature) {
+      if (!c.thermal) fail_without_thermal(reader, criterion, "bond.criterion");
+      if (!temperature) {
+        reader.fail(bond, "bond.temperature",
+                    "missing required key (the bonding temperature of criterion temperature)");
+      }
+      c.bond.temperature = reader.positive(temperature, "bond.temperature");
+    } else if (temperature) {
+      reader.fail(temperature, "bond.temperature",
+                  "only with criterion temperature (the criterion is " + criterion.Scalar() + ")");
+    }
   } else {
     // No bond block: plain damped Hertz. delta_eq only has to be a valid number.
     c.bond.criterion = BondCriterion::kNever;
@@ -628,7 +769,7 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
     const YAML::Node body = particles[k];
     const std::string path = Reader::join("particles", k);
     reader.expect_map(body, path);
-    reader.check_keys(body, path, {"material", "radius", "position", "velocity"});
+    reader.check_keys(body, path, {"material", "radius", "position", "velocity", "temperature"});
     ParticleSpec spec;
     spec.material = material_index(reader, c, body, path);
     spec.radius = reader.positive(reader.require(body, path, "radius"), path + ".radius");
@@ -636,6 +777,7 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
     if (const YAML::Node velocity = body["velocity"]) {
       spec.velocity = reader.vector3(velocity, path + ".velocity");
     }
+    spec.temperature = particle_temperature(reader, c, body, path);
     c.particles.push_back(spec);
   }
 
@@ -648,6 +790,22 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
   }
   if (const YAML::Node insert = root["insert"]) read_insertions(reader, c, insert);
   if (c.particles.empty()) reader.fail(root, "particles", "the case has no particles");
+  if (c.thermal) {
+    // m c_p dT/dt needs a heat capacity for every particle; walls only need a conductivity.
+    for (std::size_t m = 0; m < c.materials.size(); ++m) {
+      const Material& material = c.materials[m];
+      if (material.specific_heat > 0.0) continue;
+      const bool used =
+          std::any_of(c.particles.begin(), c.particles.end(),
+                      [&](const ParticleSpec& p) { return p.material == static_cast<int>(m); });
+      if (used) {
+        reader.fail(materials[material.name],
+                    Reader::join("materials", material.name) + ".specific_heat",
+                    "missing required key: particles of material '" + material.name +
+                        "' need it with a thermal: block");
+      }
+    }
+  }
 
   if (const YAML::Node neighbors = root["neighbors"]) {
     reader.expect_map(neighbors, "neighbors");

@@ -122,6 +122,25 @@ std::uint64_t case_fingerprint(const Case& c) {
     for (const MotionKey& key : b.motion)
       text << key.time << ' ' << key.velocity.transpose() << ';';
   }
+  // Thermal settings only enter with a thermal block (nothing thermal acts without one), so the
+  // fingerprints of other cases, and the checkpoints that carry them, stay as they were.
+  if (c.thermal) {
+    const ThermalModel& t = *c.thermal;
+    text << "thermal " << t.initial_temperature << ' ' << t.ambient_temperature << ' '
+         << t.convection_coefficient << ' ' << t.radiation << ' ' << c.bond.temperature << ';';
+    for (const Material& m : c.materials) {
+      text << m.specific_heat << ' ' << m.thermal_conductivity << ' ' << m.emissivity << ';';
+    }
+    for (const PlaneWall& w : c.walls) text << w.temperature << ';';
+    if (c.laser) {
+      const Laser& l = *c.laser;
+      text << "laser " << l.power << ' ' << l.spot_radius << ' ' << l.absorptivity << ' '
+           << l.start_time << ';';
+      for (const LaserSegment& s : l.path) {
+        text << s.start.transpose() << ' ' << s.end.transpose() << ' ' << s.speed << ';';
+      }
+    }
+  }
   const std::string canonical = text.str();
   return fnv1a(canonical.data(), canonical.size());
 }

@@ -5,6 +5,15 @@ file(MAKE_DIRECTORY ${WORK})
 file(READ ${CASES}/paper_5_1.yaml valid)
 string(REPLACE "damping_ratio: 0.5" "damping_ratoi: 0.5" typo "${valid}")
 file(WRITE ${WORK}/typo.yaml "${typo}")
+# A thermal case (lines 27-33) whose laser absorptivity is out of range.
+file(WRITE ${WORK}/laser.yaml "${valid}thermal: {initial_temperature: 300}
+laser:
+  power: 100
+  spot_radius: 5.0e-5
+  absorptivity: 1.5
+  path:
+    - {from: [0.0, 0.0], to: [0.002, 0.0], speed: 0.5}
+")
 
 function(expect_bad_input expected_text)
   execute_process(COMMAND ${BONDEM} ${ARGN} RESULT_VARIABLE status ERROR_VARIABLE err
@@ -46,6 +55,10 @@ expect_bad_input("'insert.0': random fill" run ${CASES}/powder_bed_packing_ci.ya
                  --set insert.0.count=20000 --output ${WORK}/run_fill)
 expect_bad_input("'particles.1': overlaps particles.0" run ${CASES}/paper_5_1.yaml --quiet
                  --set particles.1.position.0=0.0015 --output ${WORK}/run_overlap)
+expect_bad_input("laser.yaml:31:17: 'laser.absorptivity': must lie in [0, 1], got 1.5" run
+                 ${WORK}/laser.yaml --quiet --output ${WORK}/run_laser)
+expect_bad_input("'bond.criterion': needs a thermal: block" run ${CASES}/paper_5_1.yaml --quiet
+                 --set bond.criterion=temperature --output ${WORK}/run_criterion)
 expect_bad_input("--threads must be at least 1" run ${CASES}/powder_bed_packing_ci.yaml --quiet
                  --threads 0 --output ${WORK}/run_threads)
 file(GLOB run_leftovers ${WORK}/run_*)
