@@ -304,6 +304,19 @@ int run_run(const RunCommand& o) {
               << "agglomerate_d10_d50_d90 = " << r.cluster_sizes.d10 << " " << r.cluster_sizes.d50
               << " " << r.cluster_sizes.d90 << " m\n";
   }
+  std::cout << "bonds_formed = " << r.bonds_formed << "\n"
+            << "bonds_broken = " << r.bonds_broken << "\n";
+  if (r.thermal) {
+    const bondem::ThermalReport& t = *r.thermal;
+    std::cout << "peak_temperature = " << t.track.peak_temperature << " K\n"
+              << "final_max_temperature = " << t.final_max_temperature << " K\n"
+              << "laser_energy_absorbed = " << t.laser_energy << " J\n"
+              << "laser_energy_missed = " << t.laser_missed << " J\n"
+              << "track_threshold = " << t.threshold << " K\n"
+              << "track_particles = " << t.track.heated << "\n"
+              << "track_width = " << t.track.width << " m\n"
+              << "bonded_agglomerates = " << t.clusters_of_two_or_more << "\n";
+  }
   if (r.layer) {
     std::cout << "layer_solid_fraction = " << r.layer->solid_fraction << "\n"
               << "layer_mean_height = " << r.layer->mean_surface_height << " m\n"

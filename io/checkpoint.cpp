@@ -165,8 +165,27 @@ void write_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
   for (const auto* field : {&s.list.x0, &s.list.y0, &s.list.z0}) payload.put(*field);
   payload.put(static_cast<std::int32_t>(p.walls));
   payload.put(p.wall_slip);
-  payload.put(s.slips);
+  // Field by field: the struct's padding bytes are not part of the state.
+  payload.put(static_cast<std::uint64_t>(s.slips.size()));
+  for (const SlipRecord& slip : s.slips) {
+    payload.put(slip.first_id);
+    payload.put(slip.second_id);
+    for (const double v : {slip.sx, slip.sy, slip.sz}) payload.put(v);
+    payload.put(slip.bonded);
+  }
   payload.put(s.bodies);
+  payload.put(s.bonds_formed);
+  payload.put(s.bonds_broken);
+  payload.put(s.laser_energy);
+  payload.put(s.laser_missed);
+  // Thermal arrays, one value per particle, only in thermal runs.
+  payload.put(static_cast<std::uint8_t>(p.thermal() ? 1 : 0));
+  if (p.thermal()) {
+    for (const auto* field :
+         {&p.temperature, &p.peak_temperature, &p.inv_heat_capacity, &p.heat_rate}) {
+      payload.put(*field);
+    }
+  }
   payload.put(checkpoint.history);
 
   AtomicFile file(path, std::ios::binary);
@@ -238,11 +257,27 @@ Checkpoint read_checkpoint(const std::string& path) {
   const auto slip_count = r.get<std::uint64_t>();
   if (slip_count > bytes.size()) r.fail("implausible number of tangential springs");
   s.slips.resize(slip_count);
-  r.get_raw(s.slips.data(), slip_count * sizeof(SlipRecord));
+  for (SlipRecord& slip : s.slips) {
+    slip.first_id = r.get<std::int64_t>();
+    slip.second_id = r.get<std::int64_t>();
+    slip.sx = r.get<double>();
+    slip.sy = r.get<double>();
+    slip.sz = r.get<double>();
+    slip.bonded = r.get<std::uint8_t>();
+  }
   const auto body_values = r.get<std::uint64_t>();
   if (body_values > bytes.size()) r.fail("implausible number of body values");
   s.bodies.resize(body_values);
   r.get_raw(s.bodies.data(), body_values * sizeof(double));
+  s.bonds_formed = r.get<std::int64_t>();
+  s.bonds_broken = r.get<std::int64_t>();
+  s.laser_energy = r.get<double>();
+  s.laser_missed = r.get<double>();
+  if (r.get<std::uint8_t>() != 0) {
+    for (auto* field : {&p.temperature, &p.peak_temperature, &p.inv_heat_capacity, &p.heat_rate}) {
+      r.get(*field, n);
+    }
+  }
   c.history = r.get_text();
   if (!r.at_end()) r.fail("trailing bytes");
   return c;

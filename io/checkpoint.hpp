@@ -19,7 +19,7 @@ class CheckpointError : public std::runtime_error {
 };
 
 /// Format version written into every checkpoint; readers refuse any other.
-inline constexpr std::uint32_t kCheckpointVersion = 2;
+inline constexpr std::uint32_t kCheckpointVersion = 3;
 
 /// The complete state of a run at the end of a step.
 struct Checkpoint {

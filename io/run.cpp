@@ -35,7 +35,9 @@ std::string exact(double value) {
 /// Columns of history.csv; each wall and tool adds the force the particles exert on it.
 std::string history_header(const Scene& scene) {
   std::string header =
-      "time,kinetic_energy,rotational_energy,contacts,bonds,wall_contacts,max_overlap";
+      "time,kinetic_energy,rotational_energy,contacts,bonds,bonds_formed,bonds_broken,"
+      "wall_contacts,max_overlap";
+  if (scene.particles.thermal()) header += ",max_temperature,mean_temperature,laser_energy";
   const auto add_load = [&](const std::string& name) {
     for (const char* axis : {"_x", "_y", "_z"}) header += ",load_" + name + axis;
   };
@@ -147,9 +149,15 @@ class VtkObserver {
         bond_count_[j] += bonded ? 1.0 : 0.0;
       }
     }
+    std::vector<VtkSeriesWriter::ScalarField> scalars{{"coordination", &coordination_},
+                                                      {"bond_count", &bond_count_}};
+    if (p.thermal()) {
+      scalars.push_back({"temperature", &p.temperature});
+      scalars.push_back({"peak_temperature", &p.peak_temperature});
+      scalars.push_back({"heat_rate", &p.heat_rate});
+    }
     writer_.write_frame(
-        stepper.time(), p, contacts_, scene.walls, scene.domain,
-        {{"coordination", &coordination_}, {"bond_count", &bond_count_}},
+        stepper.time(), p, contacts_, scene.walls, scene.domain, scalars,
         {{"angular_velocity", &p.wx, &p.wy, &p.wz}, {"torque", &p.tx, &p.ty, &p.tz}}, scene.bodies);
   }
 
@@ -222,7 +230,15 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
     const ContactSummary& c = stepper.contacts();
     history << exact(stepper.time()) << ',' << exact(stepper.kinetic_energy()) << ','
             << exact(stepper.rotational_energy()) << ',' << c.contacts << ',' << c.bonds << ','
-            << c.wall_contacts << ',' << exact(c.max_overlap);
+            << stepper.bonds_formed() << ',' << stepper.bonds_broken() << ',' << c.wall_contacts
+            << ',' << exact(c.max_overlap);
+    if (scene.particles.thermal()) {
+      const std::vector<double>& t = scene.particles.temperature;
+      double sum = 0.0;
+      for (const double value : t) sum += value;  // index order: the same bytes at any thread count
+      history << ',' << exact(*std::max_element(t.begin(), t.end())) << ','
+              << exact(sum / static_cast<double>(t.size())) << ',' << exact(stepper.laser_energy());
+    }
     for (const Eigen::Vector3d& load : stepper.wall_forces()) {
       history << ',' << exact(load.x()) << ',' << exact(load.y()) << ',' << exact(load.z());
     }
@@ -342,6 +358,34 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
   result.clusters = clusters.sizes.size();
   result.primary_sizes = size_quantiles(primary);
   result.cluster_sizes = size_quantiles(agglomerates);
+
+  result.bonds_formed = stepper.bonds_formed();
+  result.bonds_broken = stepper.bonds_broken();
+  if (p.thermal()) {
+    ThermalReport thermal;
+    thermal.laser_energy = stepper.laser_energy();
+    thermal.laser_missed = stepper.laser_missed();
+    thermal.final_max_temperature = *std::max_element(p.temperature.begin(), p.temperature.end());
+    thermal.clusters_of_two_or_more = agglomerates.size();
+    // The heat-affected band: particles that reached the bonding temperature (or, without that
+    // criterion, the hottest tenth of the temperature rise).
+    double threshold = description.bond.temperature;
+    if (description.bond.criterion != BondCriterion::kTemperature) {
+      const double initial = description.thermal->initial_temperature;
+      double peak = initial;
+      for (const double t : p.peak_temperature) peak = std::max(peak, t);
+      threshold = initial + 0.9 * (peak - initial);
+    }
+    thermal.threshold = threshold;
+    if (description.laser) {
+      thermal.track = measure_track(p, *description.laser, threshold);
+    } else {
+      for (const double t : p.peak_temperature) {
+        thermal.track.peak_temperature = std::max(thermal.track.peak_temperature, t);
+      }
+    }
+    result.thermal = thermal;
+  }
 
   if (description.layer) {
     result.layer = measure_layer(p, *description.layer);

@@ -13,6 +13,7 @@
 #include "solver/case.hpp"
 #include "solver/contact_kernel.hpp"
 #include "solver/layer_metrics.hpp"
+#include "solver/track_metrics.hpp"
 
 namespace bondem {
 
@@ -33,6 +34,16 @@ class RunInterrupted : public std::runtime_error {
 };
 
 /// What a finished run reports.
+/// Heat and bonding of a thermal run.
+struct ThermalReport {
+  double laser_energy = 0.0;                ///< absorbed by the particles [J]
+  double laser_missed = 0.0;                ///< absorbable energy that fell on no particle [J]
+  double final_max_temperature = 0.0;       ///< [K]
+  double threshold = 0.0;                   ///< temperature that defines the heat-affected band [K]
+  TrackReport track;                        ///< band along the laser path, peak temperature
+  std::size_t clusters_of_two_or_more = 0;  ///< bonded agglomerates at the end
+};
+
 struct RunResult {
   std::int64_t steps = 0;
   std::size_t particles = 0;
@@ -48,6 +59,9 @@ struct RunResult {
   std::size_t largest_cluster = 0;    ///< particles in the largest bonded cluster
   SizeQuantiles primary_sizes;        ///< particle diameters
   SizeQuantiles cluster_sizes;        ///< volume-equivalent diameters of clusters of 2 or more
+  std::int64_t bonds_formed = 0;      ///< over the whole run (restarts included)
+  std::int64_t bonds_broken = 0;
+  std::optional<ThermalReport> thermal;  ///< thermal runs only
 };
 
 /// Run @p description to time.end, writing into the output directory `history.csv` (time,

@@ -14,6 +14,7 @@
 #include "geometry/bodies.hpp"
 #include "geometry/walls.hpp"
 #include "solver/bond_law.hpp"
+#include "solver/heat_law.hpp"
 #include "solver/neighbor_list.hpp"
 #include "solver/pair.hpp"
 #include "solver/rolling_law.hpp"
@@ -29,6 +30,10 @@ struct ContactSummary {
   std::size_t wall_contacts = 0;      ///< particle-wall contacts
   double max_overlap = 0.0;           ///< largest overlap of any contact [m]
   double max_overlap_fraction = 0.0;  ///< largest overlap / radius of the smaller body
+  std::size_t bonds_formed = 0;       ///< pairs that joined the adhesive branch this evaluation
+  std::size_t bonds_broken = 0;       ///< pairs that left it (overlap at delta_crit, or apart)
+  /// Largest dt sum(H) / (m c_p) of any particle; above 1 the explicit heat step is unstable.
+  double thermal_step_ratio = 0.0;
 };
 
 /// Per-pair forces on the first particle of each pair, one slot per neighbor-list entry.
@@ -37,12 +42,16 @@ struct PairForces {
   std::vector<std::uint8_t> bonded;      ///< 1 where the pair is on the adhesive branch
   std::vector<double> ti_x, ti_y, ti_z;  ///< torque on i (with friction)
   std::vector<double> tj_x, tj_y, tj_z;  ///< torque on j (with friction)
-  void resize(std::size_t pairs, bool torques) {
+  std::vector<double> heat;              ///< heat flow into i [W] (thermal runs)
+  std::vector<double> conductance;       ///< contact conductance H [W/K] (thermal runs)
+  void resize(std::size_t pairs, bool torques, bool thermal) {
     for (std::vector<double>* f : {&fx, &fy, &fz}) f->resize(pairs);
     bonded.resize(pairs);
     for (std::vector<double>* t : {&ti_x, &ti_y, &ti_z, &tj_x, &tj_y, &tj_z}) {
       t->resize(torques ? pairs : 0);
     }
+    heat.resize(thermal ? pairs : 0);
+    conductance.resize(thermal ? pairs : 0);
   }
 };
 
@@ -56,7 +65,9 @@ struct PairHistory {
 };
 
 /// Pass 1: the bond law for every candidate pair of @p list (force on i stored; j gets minus).
-/// @param criterion_met callable (i, j) -> bool, the bonding criterion of the pair.
+/// @param criterion_met callable (i, j, k) -> bool, the bonding criterion of pair k = (i, j); it
+/// may read out.bonded[k], which still holds the pair's previous state.
+/// In thermal runs each contact also gets its conductance and the heat flow into i.
 /// With kFriction the pair also gets the tangential law (history in @p history) and rolling
 /// resistance, and torques are stored; without it that code is compiled out.
 template <bool kFriction, class Adhesion, class Criterion>
@@ -66,8 +77,11 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
   const std::size_t n = p.size();
   std::size_t contacts = 0;
   std::size_t bonds = 0;
+  std::size_t formed = 0;
+  std::size_t broken = 0;
   double max_overlap = 0.0;
   double max_fraction = 0.0;
+  const bool thermal = p.thermal();
   // Pairs go in blocks: a short first loop takes every pair's distance (a square root and a
   // division per pair, independent across pairs, so they overlap in the pipeline), then the laws
   // run on the stored geometry. One long loop body would serialise those latencies.
@@ -75,7 +89,7 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
   constexpr std::uint32_t kBlock = 128;  // pairs per geometry block
   const std::size_t chunks = (n + kChunk - 1) / kChunk;
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) \
-    reduction(+ : contacts, bonds) reduction(max : max_overlap, max_fraction)
+    reduction(+ : contacts, bonds, formed, broken) reduction(max : max_overlap, max_fraction)
   for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
     std::uint32_t first_of[kBlock];
     double overlap_of[kBlock], nx_of[kBlock], ny_of[kBlock], nz_of[kBlock];
@@ -109,7 +123,9 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
         const double overlap = overlap_of[k - block];
         if (!(overlap > 0.0)) {
           out.fx[k] = out.fy[k] = out.fz[k] = 0.0;
+          broken += out.bonded[k];
           out.bonded[k] = 0;
+          if (thermal) out.heat[k] = out.conductance[k] = 0.0;
           if constexpr (kFriction) {
             out.ti_x[k] = out.ti_y[k] = out.ti_z[k] = out.tj_x[k] = out.tj_y[k] = out.tj_z[k] = 0.0;
             history.sx[k] = history.sy[k] = history.sz[k] = 0.0;  // contact lost: spring released
@@ -126,11 +142,19 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
         const double m_star = m_star_of[k - block];
         const BondPair law = make_bond_pair(coefficients, r_star, m_star);
         const NormalForce f =
-            normal_force(law, adhesion, overlap, overlap_rate, criterion_met(i, j));
+            normal_force(law, adhesion, overlap, overlap_rate, criterion_met(i, j, k));
         out.fx[k] = f.force * nx;
         out.fy[k] = f.force * ny;
         out.fz[k] = f.force * nz;
+        formed += f.bonded && out.bonded[k] == 0 ? 1 : 0;
+        broken += !f.bonded && out.bonded[k] != 0 ? 1 : 0;
         out.bonded[k] = f.bonded ? 1 : 0;
+        if (thermal) {
+          const double h =
+              spot_conductance(coefficients.conductivity, std::sqrt(r_star) * std::sqrt(overlap));
+          out.conductance[k] = h;
+          out.heat[k] = h * (p.temperature[j] - p.temperature[i]);
+        }
         if constexpr (kFriction) {
           const Eigen::Vector3d normal(nx, ny, nz);
           // Levers from each centre to the contact point, the middle of the overlap.
@@ -181,7 +205,14 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
       }
     }
   }
-  return {contacts, bonds, 0, max_overlap, max_fraction};
+  ContactSummary summary;
+  summary.contacts = contacts;
+  summary.bonds = bonds;
+  summary.bonds_formed = formed;
+  summary.bonds_broken = broken;
+  summary.max_overlap = max_overlap;
+  summary.max_overlap_fraction = max_fraction;
+  return summary;
 }
 
 /// Contact of particle i with a surface of material @p material: damped Hertz (r* = r_i,
@@ -259,7 +290,9 @@ double boundary_contact(Particles& p, const Scene& scene, std::size_t b, std::si
 
 /// Pass 2: total force (and, with kFriction, torque) per particle = gravity + own pairs -
 /// transposed pairs + walls. Each particle's force from each wall goes to @p wall_forces
-/// (3 values per particle and wall) for wall-load reports.
+/// (3 values per particle and wall) for wall-load reports. In thermal runs the same order sums
+/// the heat flows into p.heat_rate: contacts, walls held at a temperature, convection and
+/// radiation (the laser is added by the caller).
 template <bool kFriction>
 ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborList& list,
                              const PairForces& pair_forces, std::vector<double>& wall_forces) {
@@ -270,15 +303,23 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
   std::size_t wall_contacts = 0;
   double max_overlap = 0.0;
   double max_fraction = 0.0;
+  double thermal_ratio = 0.0;
+  const bool thermal = p.thermal();
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) \
-    reduction(+ : wall_contacts) reduction(max : max_overlap, max_fraction)
+    reduction(+ : wall_contacts) reduction(max : max_overlap, max_fraction, thermal_ratio)
   for (std::size_t i = 0; i < n; ++i) {
     Eigen::Vector3d f = p.mass[i] * g;
     Eigen::Vector3d tau = Eigen::Vector3d::Zero();
+    double heat = 0.0;
+    double conductance = 0.0;
     for (std::uint32_t k = list.row_begin[i]; k < list.row_begin[i + 1]; ++k) {
       f += Eigen::Vector3d(pair_forces.fx[k], pair_forces.fy[k], pair_forces.fz[k]);
       if constexpr (kFriction) {
         tau += Eigen::Vector3d(pair_forces.ti_x[k], pair_forces.ti_y[k], pair_forces.ti_z[k]);
+      }
+      if (thermal) {
+        heat += pair_forces.heat[k];
+        conductance += pair_forces.conductance[k];
       }
     }
     for (std::uint32_t c = list.column_begin[i]; c < list.column_begin[i + 1]; ++c) {
@@ -286,6 +327,10 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
       f -= Eigen::Vector3d(pair_forces.fx[k], pair_forces.fy[k], pair_forces.fz[k]);
       if constexpr (kFriction) {
         tau += Eigen::Vector3d(pair_forces.tj_x[k], pair_forces.tj_y[k], pair_forces.tj_z[k]);
+      }
+      if (thermal) {
+        heat -= pair_forces.heat[k];
+        conductance += pair_forces.conductance[k];
       }
     }
     for (std::size_t w = 0; w < walls; ++w) {
@@ -301,6 +346,25 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
       ++wall_contacts;
       max_overlap = std::max(max_overlap, overlap);
       max_fraction = std::max(max_fraction, overlap / p.radius[i]);
+      if (thermal && w < scene.walls.size() && scene.walls[w].temperature > 0.0) {
+        const PlaneWall& wall = scene.walls[w];
+        const double h = spot_conductance(scene.pair(p.material[i], wall.material).conductivity,
+                                          std::sqrt(p.radius[i]) * std::sqrt(overlap));
+        heat += h * (wall.temperature - p.temperature[i]);
+        conductance += h;
+      }
+    }
+    if (thermal) {
+      const double area = sphere_surface_area(p.radius[i]);
+      const double t = p.temperature[i];
+      const double emissivity = scene.emissivity[static_cast<std::size_t>(p.material[i])];
+      heat += convection_heat(scene.convection_coefficient, area, scene.ambient_temperature, t) +
+              radiation_heat(emissivity, area, scene.ambient_temperature, t);
+      conductance += scene.convection_coefficient * area +
+                     radiation_conductance(emissivity, area, scene.ambient_temperature, t);
+      p.heat_rate[i] = heat;
+      thermal_ratio =
+          std::max(thermal_ratio, scene.time_step * conductance * p.inv_heat_capacity[i]);
     }
     p.fx[i] = f.x();
     p.fy[i] = f.y();
@@ -311,7 +375,12 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
       p.tz[i] = tau.z();
     }
   }
-  return {0, 0, wall_contacts, max_overlap, max_fraction};
+  ContactSummary summary;
+  summary.wall_contacts = wall_contacts;
+  summary.max_overlap = max_overlap;
+  summary.max_overlap_fraction = max_fraction;
+  summary.thermal_step_ratio = thermal_ratio;
+  return summary;
 }
 
 }  // namespace bondem

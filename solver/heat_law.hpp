@@ -24,6 +24,7 @@
 /// while C1 T1 + C2 T2 stays constant (forward Euler conserves it exactly, up to rounding, because
 /// the same flux leaves one body and enters the other).
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -56,6 +57,19 @@ inline double harmonic_conductivity(double k_i, double k_j) {
 /// a << r and a / r >> k_gas / k_solid.
 inline double contact_conductance(double k_i, double k_j, double a) {
   return 2.0 * harmonic_conductivity(k_i, k_j) * a;
+}
+
+/// The same conductance from an effective conductivity already formed per material pair:
+/// H = 2 k_eff a [W/K].
+inline double spot_conductance(double k_eff, double a) {
+  return 2.0 * k_eff * a;
+}
+
+/// Conductance that radiation adds to the explicit step limit: the slope of eps sigma A T^4
+/// between T and T_amb is at most 4 eps sigma A max(T, T_amb)^3 [W/K].
+inline double radiation_conductance(double emissivity, double area, double t_ambient, double t) {
+  const double hotter = std::max(t, t_ambient);
+  return 4.0 * emissivity * kStefanBoltzmann * area * hotter * hotter * hotter;
 }
 
 /// Convective heat gained from the surroundings, h A (T_amb - T) [W]; negative for a hot particle.

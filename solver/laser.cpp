@@ -98,6 +98,13 @@ double beam_fraction(const Eigen::Vector2d& centre, double w, double x0, double 
 LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* z,
                                 const double* radius, std::size_t n, const Laser& laser,
                                 double time, double* heat_rate) {
+  LaserScratch scratch;
+  return deposit_laser_heat(x, y, z, radius, n, laser, time, heat_rate, scratch);
+}
+
+LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* z,
+                                const double* radius, std::size_t n, const Laser& laser,
+                                double time, double* heat_rate, LaserScratch& scratch) {
   check_beam(laser);
   const std::optional<Eigen::Vector2d> centre = beam_centre(laser, time);
   if (!centre) return {};
@@ -106,7 +113,8 @@ LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* 
 
   // Particles whose disc reaches into the window; index order makes ties go to the smaller index.
   // Coordinates are taken relative to the beam centre so column geometry keeps full precision.
-  std::vector<std::size_t> candidates;
+  std::vector<std::size_t>& candidates = scratch.candidates;
+  candidates.clear();
   double r_min = std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < n; ++i) {
     const double r = radius[i];
@@ -128,8 +136,10 @@ LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* 
   const double h = 2.0 * half / static_cast<double>(columns);
 
   // Highest sphere surface over each column centre, splatted particle by particle.
-  std::vector<double> top(columns * columns, -std::numeric_limits<double>::infinity());
-  std::vector<std::size_t> owner(columns * columns, kNoOwner);
+  std::vector<double>& top = scratch.top;
+  std::vector<std::size_t>& owner = scratch.owner;
+  top.assign(columns * columns, -std::numeric_limits<double>::infinity());
+  owner.assign(columns * columns, kNoOwner);
   for (std::size_t slot = 0; slot < candidates.size(); ++slot) {
     const std::size_t i = candidates[slot];
     const double px = x[i] - centre->x();
@@ -158,7 +168,8 @@ LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* 
   // A column's share is its rectangle's beam_fraction, factored as (x strip) x (y strip).
   const std::vector<double> fraction = strip_fractions(columns, h, half, w);
   const double absorbed_power = laser.absorptivity * laser.power;
-  std::vector<double> gained(candidates.size(), 0.0);
+  std::vector<double>& gained = scratch.gained;
+  gained.assign(candidates.size(), 0.0);
   LaserDeposit deposit;
   for (std::size_t row = 0; row < columns; ++row) {
     const double row_power = absorbed_power * fraction[row];

@@ -69,4 +69,17 @@ LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* 
                                 const double* radius, std::size_t n, const Laser& laser,
                                 double time, double* heat_rate);
 
+/// Buffers deposit_laser_heat reuses between calls (a run deposits every step).
+struct LaserScratch {
+  std::vector<std::size_t> candidates;
+  std::vector<double> top;
+  std::vector<std::size_t> owner;
+  std::vector<double> gained;
+};
+
+/// deposit_laser_heat with caller-owned buffers: the same result without per-call allocation.
+LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* z,
+                                const double* radius, std::size_t n, const Laser& laser,
+                                double time, double* heat_rate, LaserScratch& scratch);
+
 }  // namespace bondem

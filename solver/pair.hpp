@@ -46,6 +46,7 @@ struct PairCoefficients {
   double shear_modulus = 0.0;      ///< G* = 1 / ((2 - nu_i)/G_i + (2 - nu_j)/G_j), Mindlin [Pa]
   double friction = 0.0;           ///< Coulomb sliding friction mu
   double rolling_friction = 0.0;   ///< rolling resistance mu_r (dimensionless, times r*)
+  double conductivity = 0.0;       ///< k_eff, harmonic mean of the two conductivities [W/(m K)]
 };
 
 /// Effective shear modulus G* of Mindlin's tangential stiffness.

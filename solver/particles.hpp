@@ -28,6 +28,14 @@ struct Particles {
   /// Tangential spring elongation against each wall, 3 values per wall, wall_count() per particle.
   std::vector<double> wall_slip;
   int walls = 0;  ///< walls with a slot in wall_slip
+  // Thermal state; these arrays are empty when the case has no `thermal:` block.
+  std::vector<double> temperature;        ///< [K]
+  std::vector<double> peak_temperature;   ///< highest temperature reached so far [K]
+  std::vector<double> inv_heat_capacity;  ///< 1 / (m c_p) [K/J]
+  std::vector<double> heat_rate;          ///< net heat flow in, from the last evaluation [W]
+
+  /// Whether temperatures are tracked.
+  bool thermal() const { return !temperature.empty(); }
 
   /// Give every particle a zeroed tangential-history slot for each of @p wall_count walls.
   void set_wall_count(int wall_count) {
@@ -65,9 +73,30 @@ struct Particles {
   void permute(const std::vector<std::uint32_t>& order) {
     permute_field(id, order);
     permute_field(material, order);
-    for (std::vector<double>* field : {&x, &y, &z, &vx, &vy, &vz, &fx, &fy, &fz, &radius, &mass,
-                                       &inv_mass, &wx, &wy, &wz, &tx, &ty, &tz, &inv_inertia}) {
-      permute_field(*field, order);
+    for (std::vector<double>* field : {&x,
+                                       &y,
+                                       &z,
+                                       &vx,
+                                       &vy,
+                                       &vz,
+                                       &fx,
+                                       &fy,
+                                       &fz,
+                                       &radius,
+                                       &mass,
+                                       &inv_mass,
+                                       &wx,
+                                       &wy,
+                                       &wz,
+                                       &tx,
+                                       &ty,
+                                       &tz,
+                                       &inv_inertia,
+                                       &temperature,
+                                       &peak_temperature,
+                                       &inv_heat_capacity,
+                                       &heat_rate}) {
+      if (!field->empty()) permute_field(*field, order);
     }
     const auto stride = static_cast<std::size_t>(3 * walls);
     std::vector<double> slip(wall_slip.size());

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <numbers>
 
+#include "solver/heat_law.hpp"
+
 namespace bondem {
 
 double sphere_mass(double radius, double density) {
@@ -22,6 +24,7 @@ PairCoefficients Case::pair_coefficients(int a, int b) const {
                                             m_b.youngs_modulus, m_b.poisson_ratio);
   c.friction = friction;
   c.rolling_friction = rolling_friction;
+  c.conductivity = harmonic_conductivity(m_a.thermal_conductivity, m_b.thermal_conductivity);
   return c;
 }
 
@@ -66,6 +69,26 @@ Scene build_scene(const Case& description) {
     const double density = description.materials[static_cast<std::size_t>(spec.material)].density;
     scene.particles.add(next_id++, spec.material, spec.radius, sphere_mass(spec.radius, density),
                         spec.position.data(), spec.velocity.data());
+  }
+  if (description.thermal) {
+    const ThermalModel& thermal = *description.thermal;
+    Particles& p = scene.particles;
+    p.temperature.resize(p.size());
+    p.inv_heat_capacity.resize(p.size());
+    p.heat_rate.assign(p.size(), 0.0);
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      const Material& m = description.materials[static_cast<std::size_t>(p.material[i])];
+      p.temperature[i] = description.particles[i].temperature;
+      p.inv_heat_capacity[i] = 1.0 / sphere_heat_capacity(p.mass[i], m.specific_heat);
+    }
+    p.peak_temperature = p.temperature;
+    scene.ambient_temperature = thermal.ambient_temperature;
+    scene.convection_coefficient = thermal.convection_coefficient;
+    for (const Material& m : description.materials) {
+      scene.emissivity.push_back(thermal.radiation ? m.emissivity : 0.0);
+    }
+    scene.bond_temperature = description.bond.temperature;
+    scene.laser = description.laser;
   }
   return scene;
 }

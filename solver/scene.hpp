@@ -3,6 +3,7 @@
 /// The runtime scene built from a case: particle arrays, the material-pair table and body forces.
 
 #include <Eigen/Core>
+#include <optional>
 #include <vector>
 
 #include "geometry/bodies.hpp"
@@ -30,6 +31,12 @@ struct Scene {
   int reorder_interval = 20;     ///< sort particles by cell every this many list builds (0: never)
   bool friction = false;         ///< tangential law, rolling resistance and rotation are on
   double max_overlap_fraction = 0.25;  ///< overlap / smaller radius beyond which a run stops
+  // Heat transfer (particles.thermal() tells whether it is on).
+  double ambient_temperature = 0.0;     ///< [K]
+  double convection_coefficient = 0.0;  ///< h [W/(m^2 K)]
+  std::vector<double> emissivity;       ///< per material, 0 without radiation
+  double bond_temperature = 0.0;        ///< [K] of criterion kTemperature
+  std::optional<Laser> laser;
 
   /// Coefficients of material pair (a, b).
   const PairCoefficients& pair(int a, int b) const {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -13,7 +14,9 @@ Stepper::Stepper(Scene& scene, PairFlag pair_flag)
     throw std::invalid_argument("bond criterion 'pair flag' needs a pair-flag supplier");
   }
   list_.build(scene_.particles, scene_.domain, scene_.skin, scene_.reorder_interval > 0);
-  compute_forces();
+  apply_slips({});
+  compute_forces(std::numeric_limits<double>::quiet_NaN());
+  bonds_formed_ = static_cast<std::int64_t>(contacts_.bonds_formed);
 }
 
 Stepper::Stepper(Scene& scene, const StepperState& restored, PairFlag pair_flag)
@@ -24,7 +27,6 @@ Stepper::Stepper(Scene& scene, const StepperState& restored, PairFlag pair_flag)
   // Forces come with the particles: they were evaluated with the half-step velocities of the
   // interrupted step, which a fresh evaluation could not reproduce.
   list_.restore(scene_.particles, scene_.domain, scene_.skin, restored.list);
-  pair_forces_.resize(list_.pair_count(), scene_.friction);
   apply_slips(restored.slips);
   if (restored.bodies.size() != 6 * scene_.bodies.size()) {
     throw std::invalid_argument("saved state does not match the case's moving bodies");
@@ -38,6 +40,10 @@ Stepper::Stepper(Scene& scene, const StepperState& restored, PairFlag pair_flag)
   contacts_ = restored.contacts;
   time_ = restored.time;
   step_count_ = restored.step;
+  bonds_formed_ = restored.bonds_formed;
+  bonds_broken_ = restored.bonds_broken;
+  laser_energy_ = restored.laser_energy;
+  laser_missed_ = restored.laser_missed;
 }
 
 template <bool kFriction, class Adhesion>
@@ -46,24 +52,36 @@ ContactSummary Stepper::dispatch_criterion(Adhesion adhesion) {
   switch (scene_.criterion) {
     case BondCriterion::kAlways:
       return compute_pair_forces<kFriction>(
-          p, scene_, list_, adhesion, [](std::size_t, std::size_t) { return true; }, pair_forces_,
-          history_);
+          p, scene_, list_, adhesion, [](std::size_t, std::size_t, std::size_t) { return true; },
+          pair_forces_, history_);
     case BondCriterion::kNever:
       return compute_pair_forces<kFriction>(
-          p, scene_, list_, adhesion, [](std::size_t, std::size_t) { return false; }, pair_forces_,
-          history_);
-    case BondCriterion::kTemperature:  // placeholder until the thermal stepper lands
+          p, scene_, list_, adhesion, [](std::size_t, std::size_t, std::size_t) { return false; },
+          pair_forces_, history_);
+    case BondCriterion::kTemperature: {
+      // Both hot enough now, or bonded already: a solidified neck does not melt away as the
+      // particles cool; it is lost only when the overlap falls back to delta_crit.
+      const double bond_temperature = scene_.bond_temperature;
+      const std::vector<double>& t = p.temperature;
+      const std::vector<std::uint8_t>& bonded = pair_forces_.bonded;
+      return compute_pair_forces<kFriction>(
+          p, scene_, list_, adhesion,
+          [&](std::size_t i, std::size_t j, std::size_t k) {
+            return bonded[k] != 0 || (t[i] >= bond_temperature && t[j] >= bond_temperature);
+          },
+          pair_forces_, history_);
+    }
     case BondCriterion::kPairFlag:
       return compute_pair_forces<kFriction>(
           p, scene_, list_, adhesion,
-          [&](std::size_t i, std::size_t j) { return pair_flag_(p.id[i], p.id[j]); }, pair_forces_,
-          history_);
+          [&](std::size_t i, std::size_t j, std::size_t) { return pair_flag_(p.id[i], p.id[j]); },
+          pair_forces_, history_);
   }
   return {};
 }
 
-void Stepper::compute_forces() {
-  pair_forces_.resize(list_.pair_count(), scene_.friction);
+void Stepper::compute_forces(double laser_time) {
+  pair_forces_.resize(list_.pair_count(), scene_.friction, scene_.particles.thermal());
   if (scene_.friction && history_.sx.size() != list_.pair_count()) {
     history_.resize(list_.pair_count());
   }
@@ -81,26 +99,46 @@ void Stepper::compute_forces() {
   pairs.wall_contacts = walls.wall_contacts;
   pairs.max_overlap = std::max(pairs.max_overlap, walls.max_overlap);
   pairs.max_overlap_fraction = std::max(pairs.max_overlap_fraction, walls.max_overlap_fraction);
+  pairs.thermal_step_ratio = walls.thermal_step_ratio;
   contacts_ = pairs;
+  laser_power_ = laser_missed_power_ = 0.0;
+  Particles& p = scene_.particles;
+  if (p.thermal() && scene_.laser && std::isfinite(laser_time)) {
+    // Serial and in index order: the deposit does not depend on the thread count.
+    const LaserDeposit deposit =
+        deposit_laser_heat(p.x.data(), p.y.data(), p.z.data(), p.radius.data(), p.size(),
+                           *scene_.laser, laser_time, p.heat_rate.data(), laser_scratch_);
+    laser_power_ = deposit.absorbed;
+    laser_missed_power_ = deposit.missed;
+  }
 }
 
 std::vector<SlipRecord> Stepper::collect_slips() const {
   std::vector<SlipRecord> slips;
-  if (!scene_.friction) return slips;
   const Particles& p = scene_.particles;
+  const bool springs = scene_.friction;
   for (std::size_t i = 0; i < p.size(); ++i) {
     for (std::uint32_t k = list_.row_begin[i]; k < list_.row_begin[i + 1]; ++k) {
-      if (history_.sx[k] == 0.0 && history_.sy[k] == 0.0 && history_.sz[k] == 0.0) continue;
-      slips.push_back(
-          {p.id[i], p.id[list_.second[k]], history_.sx[k], history_.sy[k], history_.sz[k]});
+      const std::uint8_t bonded = pair_forces_.bonded[k];
+      const bool loaded =
+          springs && (history_.sx[k] != 0.0 || history_.sy[k] != 0.0 || history_.sz[k] != 0.0);
+      if (!loaded && bonded == 0) continue;
+      if (springs) {
+        slips.push_back({p.id[i], p.id[list_.second[k]], history_.sx[k], history_.sy[k],
+                         history_.sz[k], bonded});
+      } else {
+        slips.push_back({p.id[i], p.id[list_.second[k]], 0.0, 0.0, 0.0, bonded});
+      }
     }
   }
   return slips;
 }
 
 void Stepper::apply_slips(std::vector<SlipRecord> slips) {
-  if (!scene_.friction) return;  // no tangential springs to carry
-  history_.resize(list_.pair_count());
+  // Pair slots are indexed by the new list: start them clean, then refill by ids.
+  pair_forces_.resize(list_.pair_count(), scene_.friction, scene_.particles.thermal());
+  std::fill(pair_forces_.bonded.begin(), pair_forces_.bonded.end(), std::uint8_t{0});
+  if (scene_.friction) history_.resize(list_.pair_count());
   if (slips.empty()) return;
   // Key each spring by its pair of ids, smaller first; the elongation belongs to the first
   // particle's side, so it changes sign when the list now sees the pair the other way round.
@@ -120,6 +158,8 @@ void Stepper::apply_slips(std::vector<SlipRecord> slips) {
           slips.begin(), slips.end(), wanted,
           [&](const SlipRecord& r, const auto& w) { return key(r.first_id, r.second_id) < w; });
       if (found == slips.end() || key(found->first_id, found->second_id) != wanted) continue;
+      pair_forces_.bonded[k] = found->bonded;
+      if (!scene_.friction) continue;
       const double sign = found->first_id == p.id[i] ? 1.0 : -1.0;
       history_.sx[k] = sign * found->sx;
       history_.sy[k] = sign * found->sy;
@@ -159,7 +199,9 @@ void Stepper::step() {
     list_.build(p, scene_.domain, scene_.skin, reorder);
     apply_slips(std::move(slips));
   }
-  compute_forces();
+  // The laser deposits at mid-step, so a beam on for T seconds delivers its power for T seconds
+  // to within one step.
+  compute_forces(time_ + half_dt);
   if (scene_.friction) kick_spin(half_dt);
   bool finite = true;
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) reduction(&& : finite)
@@ -170,9 +212,31 @@ void Stepper::step() {
     p.vz[i] += kick * p.fz[i];
     finite = finite && std::isfinite(p.vx[i] + p.vy[i] + p.vz[i] + p.x[i] + p.y[i] + p.z[i]);
   }
+  if (p.thermal()) {
+    // Forward Euler on m c_p dT/dt = sum Q with the flows of the temperatures at the step's start.
+#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) reduction(&& : finite)
+    for (std::size_t i = 0; i < n; ++i) {
+      p.temperature[i] += dt * p.heat_rate[i] * p.inv_heat_capacity[i];
+      p.peak_temperature[i] = std::max(p.peak_temperature[i], p.temperature[i]);
+      finite = finite && std::isfinite(p.temperature[i]);
+    }
+    laser_energy_ += laser_power_ * dt;
+    laser_missed_ += laser_missed_power_ * dt;
+  }
+  bonds_formed_ += static_cast<std::int64_t>(contacts_.bonds_formed);
+  bonds_broken_ += static_cast<std::int64_t>(contacts_.bonds_broken);
   time_ = static_cast<double>(++step_count_) * dt;
   if (!finite || contacts_.max_overlap_fraction > scene_.max_overlap_fraction) {
     throw BlowUpError(diagnose_blow_up(finite));
+  }
+  if (contacts_.thermal_step_ratio > 1.0) {
+    std::ostringstream message;
+    message << "step " << step_count_ << " (t = " << time_
+            << " s): the explicit heat step is unstable, dt sum(H) / (m c_p) = "
+            << contacts_.thermal_step_ratio << " > 1 for some particle; reduce time.step to "
+            << dt / contacts_.thermal_step_ratio
+            << " s or below (or raise specific_heat, lower thermal_conductivity)";
+    throw BlowUpError(message.str());
   }
 }
 
@@ -236,6 +300,10 @@ StepperState Stepper::save_state() const {
   state.contacts = contacts_;
   list_.save(state.list);
   state.slips = collect_slips();
+  state.bonds_formed = bonds_formed_;
+  state.bonds_broken = bonds_broken_;
+  state.laser_energy = laser_energy_;
+  state.laser_missed = laser_missed_;
   for (const Body& body : scene_.bodies) {
     for (int a = 0; a < 3; ++a) state.bodies.push_back(body.center[a]);
     for (int a = 0; a < 3; ++a) state.bodies.push_back(body.velocity[a]);

@@ -20,10 +20,12 @@ class BlowUpError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// A tangential spring of a pair, keyed by ids; the elongation is seen from the first particle.
+/// What a pair carries from step to step, keyed by ids: its tangential spring (the elongation
+/// is seen from the first particle) and whether it was bonded.
 struct SlipRecord {
   std::int64_t first_id, second_id;
   double sx, sy, sz;
+  std::uint8_t bonded;
 };
 
 /// Everything besides the particle arrays that a restarted stepper needs to continue bit for bit.
@@ -32,8 +34,12 @@ struct StepperState {
   std::int64_t step = 0;
   ContactSummary contacts;
   NeighborListState list;
-  std::vector<SlipRecord> slips;  ///< tangential springs of the pairs in contact
+  std::vector<SlipRecord> slips;  ///< springs and bond flags of the pairs in contact
   std::vector<double> bodies;     ///< centre and velocity (6 values) of every moving body
+  std::int64_t bonds_formed = 0;  ///< bonds formed so far
+  std::int64_t bonds_broken = 0;  ///< bonds lost so far
+  double laser_energy = 0.0;      ///< laser energy absorbed by particles so far [J]
+  double laser_missed = 0.0;      ///< absorbable laser energy that found no particle [J]
 };
 
 /// Advances a scene in time. Owns the neighbor list and per-pair force slots; the scene owns the
@@ -77,9 +83,19 @@ class Stepper {
   double kinetic_energy() const;
   /// Kinetic energy of rotation, summed in index order [J].
   double rotational_energy() const;
+  /// Bonds formed so far (a pair joining the adhesive branch of eq. 25).
+  std::int64_t bonds_formed() const { return bonds_formed_; }
+  /// Bonds lost so far (overlap back at delta_crit, the pair apart, or the criterion failing).
+  std::int64_t bonds_broken() const { return bonds_broken_; }
+  /// Laser energy absorbed by the particles so far [J].
+  double laser_energy() const { return laser_energy_; }
+  /// Absorbable laser energy that fell between the particles, on the substrate, so far [J].
+  double laser_missed() const { return laser_missed_; }
 
  private:
-  void compute_forces();
+  /// Forces (and heat flows) at the current positions; @p laser_time, when finite, is the time at
+  /// which the laser deposits heat during this step.
+  void compute_forces(double laser_time);
   void kick_spin(double half_dt);
   std::vector<SlipRecord> collect_slips() const;
   void apply_slips(std::vector<SlipRecord> slips);
@@ -96,6 +112,13 @@ class Stepper {
   ContactSummary contacts_;
   double time_ = 0.0;
   std::int64_t step_count_ = 0;
+  std::int64_t bonds_formed_ = 0;
+  std::int64_t bonds_broken_ = 0;
+  double laser_energy_ = 0.0;
+  double laser_missed_ = 0.0;
+  LaserScratch laser_scratch_;
+  double laser_power_ = 0.0;  ///< absorbed in the last evaluation [W]
+  double laser_missed_power_ = 0.0;
 };
 
 }  // namespace bondem
