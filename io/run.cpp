@@ -46,18 +46,41 @@ std::string history_header(const Scene& scene) {
   return header + '\n';
 }
 
-void write_final_state(const Particles& p, const std::string& path) {
+/// Bonds per particle in the last force evaluation.
+std::vector<int> bond_counts(const Particles& p, const Stepper& stepper) {
+  std::vector<int> counts(p.size(), 0);
+  const NeighborList& list = stepper.neighbors();
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    for (std::uint32_t k = list.row_begin[i]; k < list.row_begin[i + 1]; ++k) {
+      if (stepper.pair_forces().bonded[k] == 0) continue;
+      ++counts[i];
+      ++counts[list.second[k]];
+    }
+  }
+  return counts;
+}
+
+/// One row per particle sorted by id; thermal runs add temperatures and each particle's bonds.
+void write_final_state(const Particles& p, const std::string& path,
+                       const std::vector<int>& bonds = {}) {
   std::vector<std::size_t> order(p.size());
   std::iota(order.begin(), order.end(), std::size_t{0});
   std::sort(order.begin(), order.end(),
             [&](std::size_t a, std::size_t b) { return p.id[a] < p.id[b]; });
   AtomicFile file(path);
   std::ostream& out = file.stream();
-  out << "id,x,y,z,vx,vy,vz,radius\n";
+  const bool thermal = p.thermal() && bonds.size() == p.size();
+  out << "id,x,y,z,vx,vy,vz,radius" << (thermal ? ",temperature,peak_temperature,bonds" : "")
+      << '\n';
   for (const std::size_t i : order) {
     out << p.id[i] << ',' << exact(p.x[i]) << ',' << exact(p.y[i]) << ',' << exact(p.z[i]) << ','
         << exact(p.vx[i]) << ',' << exact(p.vy[i]) << ',' << exact(p.vz[i]) << ','
-        << exact(p.radius[i]) << '\n';
+        << exact(p.radius[i]);
+    if (thermal) {
+      out << ',' << exact(p.temperature[i]) << ',' << exact(p.peak_temperature[i]) << ','
+          << bonds[i];
+    }
+    out << '\n';
   }
   file.commit();
 }
@@ -295,7 +318,8 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
       if (vtk && s % vtk_every != 0) vtk->write(scene, stepper);
       checkpoint();
       write_history();
-      write_final_state(scene.particles, (directory / "final_state.csv").string());
+      write_final_state(scene.particles, (directory / "final_state.csv").string(),
+                        bond_counts(scene.particles, stepper));
       std::ostringstream message;
       // A built-in case has no file to name: `bondem run` without one picks it again.
       const std::string case_argument =
@@ -310,7 +334,8 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
   progress.finish();
   const double wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
   write_history();
-  write_final_state(scene.particles, (directory / "final_state.csv").string());
+  write_final_state(scene.particles, (directory / "final_state.csv").string(),
+                    bond_counts(scene.particles, stepper));
   checkpoint();
 
   RunResult result;
