@@ -63,6 +63,18 @@ std::pair<std::size_t, std::size_t> columns_in(double lo, double hi, double h, d
   return {static_cast<std::size_t>(first), static_cast<std::size_t>(last)};
 }
 
+/// Image shifts k (in periods) with |offset + k period| < reach, as [first, last] (first > last
+/// when none). A period of 0 means the axis is not periodic: only k = 0, if it is in reach.
+std::pair<double, double> images_in_window(double offset, double reach, double period) {
+  if (period == 0.0) return std::abs(offset) < reach ? std::pair{0.0, 0.0} : std::pair{1.0, 0.0};
+  double first = std::ceil((-reach - offset) / period);
+  double last = std::floor((reach - offset) / period);
+  // The bounds are strict: drop an image that lands exactly on the edge of reach.
+  if (!(std::abs(offset + first * period) < reach)) first += 1.0;
+  if (!(std::abs(offset + last * period) < reach)) last -= 1.0;
+  return {first, last};
+}
+
 }  // namespace
 
 std::optional<Eigen::Vector2d> beam_centre(const Laser& laser, double time) {
@@ -97,31 +109,41 @@ double beam_fraction(const Eigen::Vector2d& centre, double w, double x0, double 
 
 LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* z,
                                 const double* radius, std::size_t n, const Laser& laser,
-                                double time, double* heat_rate) {
+                                double time, double* heat_rate, LaserPeriods periods) {
   LaserScratch scratch;
-  return deposit_laser_heat(x, y, z, radius, n, laser, time, heat_rate, scratch);
+  return deposit_laser_heat(x, y, z, radius, n, laser, time, heat_rate, scratch, periods);
 }
 
 LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* z,
                                 const double* radius, std::size_t n, const Laser& laser,
-                                double time, double* heat_rate, LaserScratch& scratch) {
+                                double time, double* heat_rate, LaserScratch& scratch,
+                                LaserPeriods periods) {
   check_beam(laser);
+  if (!(periods.x >= 0.0) || !(periods.y >= 0.0)) {
+    throw std::invalid_argument("laser periods must be non-negative (0: not periodic)");
+  }
   const std::optional<Eigen::Vector2d> centre = beam_centre(laser, time);
   if (!centre) return {};
   const double w = laser.spot_radius;
   const double half = kWindowHalfWidths * w;
 
-  // Particles whose disc reaches into the window; index order makes ties go to the smaller index.
-  // Coordinates are taken relative to the beam centre so column geometry keeps full precision.
-  std::vector<std::size_t>& candidates = scratch.candidates;
+  // Particle images whose disc reaches into the window, in index order (then image order) so ties
+  // go to the smaller index. Coordinates are taken relative to the beam centre so column geometry
+  // keeps full precision.
+  std::vector<LaserScratch::Candidate>& candidates = scratch.candidates;
   candidates.clear();
   double r_min = std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < n; ++i) {
     const double r = radius[i];
     if (!(r > 0.0)) continue;
-    if (std::abs(x[i] - centre->x()) < half + r && std::abs(y[i] - centre->y()) < half + r) {
-      candidates.push_back(i);
-      r_min = std::min(r_min, r);
+    const auto [x_first, x_last] = images_in_window(x[i] - centre->x(), half + r, periods.x);
+    const auto [y_first, y_last] = images_in_window(y[i] - centre->y(), half + r, periods.y);
+    for (double ky = y_first; ky <= y_last; ++ky) {
+      for (double kx = x_first; kx <= x_last; ++kx) {
+        candidates.push_back(
+            {i, x[i] - centre->x() + kx * periods.x, y[i] - centre->y() + ky * periods.y});
+        r_min = std::min(r_min, r);
+      }
     }
   }
 
@@ -141,9 +163,7 @@ LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* 
   top.assign(columns * columns, -std::numeric_limits<double>::infinity());
   owner.assign(columns * columns, kNoOwner);
   for (std::size_t slot = 0; slot < candidates.size(); ++slot) {
-    const std::size_t i = candidates[slot];
-    const double px = x[i] - centre->x();
-    const double py = y[i] - centre->y();
+    const auto [i, px, py] = candidates[slot];
     const double r = radius[i];
     const double r2 = r * r;
     const auto [col_first, col_last] = columns_in(px - r, px + r, h, half, columns);
@@ -185,7 +205,7 @@ LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* 
     }
   }
   for (std::size_t slot = 0; slot < candidates.size(); ++slot) {
-    heat_rate[candidates[slot]] += gained[slot];
+    heat_rate[candidates[slot].index] += gained[slot];
   }
   return deposit;
 }

@@ -44,6 +44,14 @@ double laser_end_time(const Laser& laser);
 double beam_fraction(const Eigen::Vector2d& centre, double w, double x0, double x1, double y0,
                      double y1);
 
+/// Periods of the bed along x and y [m]; 0 on an axis that is not periodic. On a periodic axis
+/// the particles' images one or more periods away are seen by the beam too, so power that falls
+/// across a periodic boundary lands on the particles at the other side instead of being missed.
+struct LaserPeriods {
+  double x = 0;
+  double y = 0;
+};
+
 /// Totals of one deposit [W].
 struct LaserDeposit {
   double absorbed = 0;  ///< absorbed by particles
@@ -62,16 +70,23 @@ struct LaserDeposit {
 /// its share to `missed`. So absorbed + missed = absorptivity x P x (fraction in the window) to
 /// rounding. Shadowing is geometric only: no reflection, no transmission, no beam divergence.
 /// With the beam off nothing is added and both totals are 0. The result depends on nothing but
-/// the inputs (no threads); particles with radius <= 0 are ignored.
+/// the inputs (no threads); particles with radius <= 0 are ignored. With @p periods set, a
+/// particle is a candidate once per image whose disc reaches into the window.
 /// @throws std::invalid_argument for a spot radius that is not finite and positive, a negative or
 ///         non-finite power, an absorptivity outside [0, 1], or a bad segment speed.
 LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* z,
                                 const double* radius, std::size_t n, const Laser& laser,
-                                double time, double* heat_rate);
+                                double time, double* heat_rate, LaserPeriods periods = {});
 
 /// Buffers deposit_laser_heat reuses between calls (a run deposits every step).
 struct LaserScratch {
-  std::vector<std::size_t> candidates;
+  /// A particle image inside the window: its index and centre relative to the beam centre.
+  struct Candidate {
+    std::size_t index;
+    double px;
+    double py;
+  };
+  std::vector<Candidate> candidates;
   std::vector<double> top;
   std::vector<std::size_t> owner;
   std::vector<double> gained;
@@ -80,6 +95,7 @@ struct LaserScratch {
 /// deposit_laser_heat with caller-owned buffers: the same result without per-call allocation.
 LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* z,
                                 const double* radius, std::size_t n, const Laser& laser,
-                                double time, double* heat_rate, LaserScratch& scratch);
+                                double time, double* heat_rate, LaserScratch& scratch,
+                                LaserPeriods periods = {});
 
 }  // namespace bondem

@@ -105,9 +105,12 @@ void Stepper::compute_forces(double laser_time) {
   Particles& p = scene_.particles;
   if (p.thermal() && scene_.laser && std::isfinite(laser_time)) {
     // Serial and in index order: the deposit does not depend on the thread count.
+    const Domain& domain = scene_.domain;
+    const LaserPeriods periods{domain.periodic[0] ? domain.length().x() : 0.0,
+                               domain.periodic[1] ? domain.length().y() : 0.0};
     const LaserDeposit deposit =
         deposit_laser_heat(p.x.data(), p.y.data(), p.z.data(), p.radius.data(), p.size(),
-                           *scene_.laser, laser_time, p.heat_rate.data(), laser_scratch_);
+                           *scene_.laser, laser_time, p.heat_rate.data(), laser_scratch_, periods);
     laser_power_ = deposit.absorbed;
     laser_missed_power_ = deposit.missed;
   }
