@@ -71,7 +71,7 @@ void pair_pass(benchmark::State& state, Adhesion adhesion, bool bonded) {
   Stepper stepper(scene);  // builds the list and checks the packing evaluates
   const NeighborList& list = stepper.neighbors();
   PairForces forces;
-  forces.resize(list.pair_count(), kFriction, false);
+  forces.resize(list.pair_count(), kFriction, scene.rolling(), false);
   PairHistory history;
   history.resize(list.pair_count());
   ContactSummary summary;

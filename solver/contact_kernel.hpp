@@ -37,18 +37,25 @@ struct ContactSummary {
 };
 
 /// Per-pair forces on the first particle of each pair, one slot per neighbor-list entry.
+///
+/// Torques are stored in 4 values per pair, not 6: the tangential force F_t acts at the middle of
+/// the overlap, at lever r_i - delta/2 along n from centre i and r_j - delta/2 along -n from j, so
+/// both torques are (lever length) x (n x F_t). Pass 2 multiplies n x F_t by its own particle's
+/// lever. Rolling torque (+ on i, - on j) takes 3 more only where the scene has rolling resistance.
 struct PairForces {
   std::vector<double> fx, fy, fz;
-  std::vector<std::uint8_t> bonded;      ///< 1 where the pair is on the adhesive branch
-  std::vector<double> ti_x, ti_y, ti_z;  ///< torque on i (with friction)
-  std::vector<double> tj_x, tj_y, tj_z;  ///< torque on j (with friction)
-  std::vector<double> heat;              ///< heat flow into i [W] (thermal runs)
-  std::vector<double> conductance;       ///< contact conductance H [W/K] (thermal runs)
-  void resize(std::size_t pairs, bool torques, bool thermal) {
+  std::vector<std::uint8_t> bonded;            ///< 1 where the pair is on the adhesive branch
+  std::vector<double> cx, cy, cz;              ///< n x F_t: torque per metre of lever (friction)
+  std::vector<double> half_overlap;            ///< delta / 2, which shortens both levers (friction)
+  std::vector<double> roll_x, roll_y, roll_z;  ///< rolling torque on i (rolling resistance)
+  std::vector<double> heat;                    ///< heat flow into i [W] (thermal runs)
+  std::vector<double> conductance;             ///< contact conductance H [W/K] (thermal runs)
+  void resize(std::size_t pairs, bool torques, bool rolling, bool thermal) {
     for (std::vector<double>* f : {&fx, &fy, &fz}) f->resize(pairs);
     bonded.resize(pairs);
-    for (std::vector<double>* t : {&ti_x, &ti_y, &ti_z, &tj_x, &tj_y, &tj_z}) {
-      t->resize(torques ? pairs : 0);
+    for (std::vector<double>* t : {&cx, &cy, &cz, &half_overlap}) t->resize(torques ? pairs : 0);
+    for (std::vector<double>* t : {&roll_x, &roll_y, &roll_z}) {
+      t->resize(torques && rolling ? pairs : 0);
     }
     heat.resize(thermal ? pairs : 0);
     conductance.resize(thermal ? pairs : 0);
@@ -82,6 +89,7 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
   double max_overlap = 0.0;
   double max_fraction = 0.0;
   const bool thermal = p.thermal();
+  const bool rolling = kFriction && !out.roll_x.empty();
   // Pairs go in blocks: a short first loop takes every pair's distance (a square root and a
   // division per pair, independent across pairs, so they overlap in the pipeline), then the laws
   // run on the stored geometry. One long loop body would serialise those latencies.
@@ -127,7 +135,8 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
           out.bonded[k] = 0;
           if (thermal) out.heat[k] = out.conductance[k] = 0.0;
           if constexpr (kFriction) {
-            out.ti_x[k] = out.ti_y[k] = out.ti_z[k] = out.tj_x[k] = out.tj_y[k] = out.tj_z[k] = 0.0;
+            out.cx[k] = out.cy[k] = out.cz[k] = out.half_overlap[k] = 0.0;
+            if (rolling) out.roll_x[k] = out.roll_y[k] = out.roll_z[k] = 0.0;
             history.sx[k] = history.sy[k] = history.sz[k] = 0.0;  // contact lost: spring released
           }
           continue;
@@ -183,20 +192,22 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
           out.fx[k] += t.force.x();
           out.fy[k] += t.force.y();
           out.fz[k] += t.force.z();
-          Eigen::Vector3d rolling = Eigen::Vector3d::Zero();
-          if (coefficients.rolling_friction != 0.0) {
+          const Eigen::Vector3d per_lever = normal.cross(t.force);
+          out.cx[k] = per_lever.x();
+          out.cy[k] = per_lever.y();
+          out.cz[k] = per_lever.z();
+          out.half_overlap[k] = 0.5 * overlap;
+          if (rolling) {
             // I* = I_i I_j / (I_i + I_j) = 1 / (1/I_i + 1/I_j)
-            rolling = rolling_torque(coefficients.rolling_friction, r_star, load, spin_i - spin_j,
+            const Eigen::Vector3d roll =
+                coefficients.rolling_friction == 0.0
+                    ? Eigen::Vector3d::Zero()
+                    : rolling_torque(coefficients.rolling_friction, r_star, load, spin_i - spin_j,
                                      1.0 / (p.inv_inertia[i] + p.inv_inertia[j]), scene.time_step);
+            out.roll_x[k] = roll.x();
+            out.roll_y[k] = roll.y();
+            out.roll_z[k] = roll.z();
           }
-          const Eigen::Vector3d torque_i = lever_i.cross(t.force) + rolling;
-          const Eigen::Vector3d torque_j = lever_j.cross(-t.force) - rolling;
-          out.ti_x[k] = torque_i.x();
-          out.ti_y[k] = torque_i.y();
-          out.ti_z[k] = torque_i.z();
-          out.tj_x[k] = torque_j.x();
-          out.tj_y[k] = torque_j.y();
-          out.tj_z[k] = torque_j.z();
         }
         ++contacts;
         bonds += f.bonded ? 1 : 0;
@@ -288,91 +299,110 @@ double boundary_contact(Particles& p, const Scene& scene, std::size_t b, std::si
                                     surface_velocity(body, point), force, torque);
 }
 
+/// Particles per block of the wall-load partial sums of gather_forces.
+inline constexpr std::size_t kWallLoadBlock = 64;
+
 /// Pass 2: total force (and, with kFriction, torque) per particle = gravity + own pairs -
-/// transposed pairs + walls. Each particle's force from each wall goes to @p wall_forces
-/// (3 values per particle and wall) for wall-load reports. In thermal runs the same order sums
-/// the heat flows into p.heat_rate: contacts, walls held at a temperature, convection and
-/// radiation (the laser is added by the caller).
+/// transposed pairs + walls. The force of each wall on the particles is summed per block of
+/// kWallLoadBlock particles into @p wall_forces (3 values per block and wall): the caller adds the
+/// blocks in order, so wall loads need no per-particle storage and keep one summation order. In
+/// thermal runs the same order sums the heat flows into p.heat_rate: contacts, walls held at a
+/// temperature, convection and radiation (the laser is added by the caller).
 template <bool kFriction>
 ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborList& list,
                              const PairForces& pair_forces, std::vector<double>& wall_forces) {
   const std::size_t n = p.size();
   const std::size_t walls = scene.walls.size() + scene.bodies.size();
-  wall_forces.resize(n * walls * 3);
+  const std::size_t blocks = (n + kWallLoadBlock - 1) / kWallLoadBlock;
+  wall_forces.assign(blocks * walls * 3, 0.0);
   const Eigen::Vector3d g = scene.gravity;
   std::size_t wall_contacts = 0;
   double max_overlap = 0.0;
   double max_fraction = 0.0;
   double thermal_ratio = 0.0;
   const bool thermal = p.thermal();
+  const bool rolling = kFriction && !pair_forces.roll_x.empty();
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) \
     reduction(+ : wall_contacts) reduction(max : max_overlap, max_fraction, thermal_ratio)
-  for (std::size_t i = 0; i < n; ++i) {
-    Eigen::Vector3d f = p.mass[i] * g;
-    Eigen::Vector3d tau = Eigen::Vector3d::Zero();
-    double heat = 0.0;
-    double conductance = 0.0;
-    for (std::uint32_t k = list.row_begin[i]; k < list.row_begin[i + 1]; ++k) {
-      f += Eigen::Vector3d(pair_forces.fx[k], pair_forces.fy[k], pair_forces.fz[k]);
-      if constexpr (kFriction) {
-        tau += Eigen::Vector3d(pair_forces.ti_x[k], pair_forces.ti_y[k], pair_forces.ti_z[k]);
+  for (std::size_t block = 0; block < blocks; ++block) {
+    double* block_load = &wall_forces[block * walls * 3];
+    for (std::size_t i = block * kWallLoadBlock; i < std::min(n, (block + 1) * kWallLoadBlock);
+         ++i) {
+      Eigen::Vector3d f = p.mass[i] * g;
+      Eigen::Vector3d tau = Eigen::Vector3d::Zero();
+      double heat = 0.0;
+      double conductance = 0.0;
+      for (std::uint32_t k = list.row_begin[i]; k < list.row_begin[i + 1]; ++k) {
+        f += Eigen::Vector3d(pair_forces.fx[k], pair_forces.fy[k], pair_forces.fz[k]);
+        if constexpr (kFriction) {
+          const double lever = p.radius[i] - pair_forces.half_overlap[k];
+          tau += lever * Eigen::Vector3d(pair_forces.cx[k], pair_forces.cy[k], pair_forces.cz[k]);
+          if (rolling) {
+            tau += Eigen::Vector3d(pair_forces.roll_x[k], pair_forces.roll_y[k],
+                                   pair_forces.roll_z[k]);
+          }
+        }
+        if (thermal) {
+          heat += pair_forces.heat[k];
+          conductance += pair_forces.conductance[k];
+        }
+      }
+      for (std::uint32_t c = list.column_begin[i]; c < list.column_begin[i + 1]; ++c) {
+        const std::uint32_t k = list.column_pair[c];
+        f -= Eigen::Vector3d(pair_forces.fx[k], pair_forces.fy[k], pair_forces.fz[k]);
+        if constexpr (kFriction) {
+          const double lever = p.radius[i] - pair_forces.half_overlap[k];
+          tau += lever * Eigen::Vector3d(pair_forces.cx[k], pair_forces.cy[k], pair_forces.cz[k]);
+          if (rolling) {
+            tau -= Eigen::Vector3d(pair_forces.roll_x[k], pair_forces.roll_y[k],
+                                   pair_forces.roll_z[k]);
+          }
+        }
+        if (thermal) {
+          heat -= pair_forces.heat[k];
+          conductance += pair_forces.conductance[k];
+        }
+      }
+      for (std::size_t w = 0; w < walls; ++w) {
+        Eigen::Vector3d wall_f, wall_tau;
+        const double overlap = boundary_contact<kFriction>(p, scene, w, i, wall_f, wall_tau);
+        if (overlap <= 0.0) continue;
+        block_load[w * 3 + 0] += wall_f.x();
+        block_load[w * 3 + 1] += wall_f.y();
+        block_load[w * 3 + 2] += wall_f.z();
+        f += wall_f;
+        tau += wall_tau;
+        ++wall_contacts;
+        max_overlap = std::max(max_overlap, overlap);
+        max_fraction = std::max(max_fraction, overlap / p.radius[i]);
+        if (thermal && w < scene.walls.size() && scene.walls[w].temperature > 0.0) {
+          const PlaneWall& wall = scene.walls[w];
+          const double h = spot_conductance(scene.pair(p.material[i], wall.material).conductivity,
+                                            std::sqrt(p.radius[i]) * std::sqrt(overlap));
+          heat += h * (wall.temperature - p.temperature[i]);
+          conductance += h;
+        }
       }
       if (thermal) {
-        heat += pair_forces.heat[k];
-        conductance += pair_forces.conductance[k];
+        const double area = sphere_surface_area(p.radius[i]);
+        const double t = p.temperature[i];
+        const double emissivity = scene.emissivity[static_cast<std::size_t>(p.material[i])];
+        heat += convection_heat(scene.convection_coefficient, area, scene.ambient_temperature, t) +
+                radiation_heat(emissivity, area, scene.ambient_temperature, t);
+        conductance += scene.convection_coefficient * area +
+                       radiation_conductance(emissivity, area, scene.ambient_temperature, t);
+        p.heat_rate[i] = heat;
+        thermal_ratio =
+            std::max(thermal_ratio, scene.time_step * conductance * p.inv_heat_capacity[i]);
       }
-    }
-    for (std::uint32_t c = list.column_begin[i]; c < list.column_begin[i + 1]; ++c) {
-      const std::uint32_t k = list.column_pair[c];
-      f -= Eigen::Vector3d(pair_forces.fx[k], pair_forces.fy[k], pair_forces.fz[k]);
+      p.fx[i] = f.x();
+      p.fy[i] = f.y();
+      p.fz[i] = f.z();
       if constexpr (kFriction) {
-        tau += Eigen::Vector3d(pair_forces.tj_x[k], pair_forces.tj_y[k], pair_forces.tj_z[k]);
+        p.tx[i] = tau.x();
+        p.ty[i] = tau.y();
+        p.tz[i] = tau.z();
       }
-      if (thermal) {
-        heat -= pair_forces.heat[k];
-        conductance += pair_forces.conductance[k];
-      }
-    }
-    for (std::size_t w = 0; w < walls; ++w) {
-      Eigen::Vector3d wall_f, wall_tau;
-      const double overlap = boundary_contact<kFriction>(p, scene, w, i, wall_f, wall_tau);
-      double* stored = &wall_forces[(i * walls + w) * 3];
-      stored[0] = wall_f.x();
-      stored[1] = wall_f.y();
-      stored[2] = wall_f.z();
-      if (overlap <= 0.0) continue;
-      f += wall_f;
-      tau += wall_tau;
-      ++wall_contacts;
-      max_overlap = std::max(max_overlap, overlap);
-      max_fraction = std::max(max_fraction, overlap / p.radius[i]);
-      if (thermal && w < scene.walls.size() && scene.walls[w].temperature > 0.0) {
-        const PlaneWall& wall = scene.walls[w];
-        const double h = spot_conductance(scene.pair(p.material[i], wall.material).conductivity,
-                                          std::sqrt(p.radius[i]) * std::sqrt(overlap));
-        heat += h * (wall.temperature - p.temperature[i]);
-        conductance += h;
-      }
-    }
-    if (thermal) {
-      const double area = sphere_surface_area(p.radius[i]);
-      const double t = p.temperature[i];
-      const double emissivity = scene.emissivity[static_cast<std::size_t>(p.material[i])];
-      heat += convection_heat(scene.convection_coefficient, area, scene.ambient_temperature, t) +
-              radiation_heat(emissivity, area, scene.ambient_temperature, t);
-      conductance += scene.convection_coefficient * area +
-                     radiation_conductance(emissivity, area, scene.ambient_temperature, t);
-      p.heat_rate[i] = heat;
-      thermal_ratio =
-          std::max(thermal_ratio, scene.time_step * conductance * p.inv_heat_capacity[i]);
-    }
-    p.fx[i] = f.x();
-    p.fy[i] = f.y();
-    p.fz[i] = f.z();
-    if constexpr (kFriction) {
-      p.tx[i] = tau.x();
-      p.ty[i] = tau.y();
-      p.tz[i] = tau.z();
     }
   }
   ContactSummary summary;

@@ -3,6 +3,7 @@
 /// The runtime scene built from a case: particle arrays, the material-pair table and body forces.
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <optional>
 #include <vector>
 
@@ -39,6 +40,12 @@ struct Scene {
   std::optional<Laser> laser;
 
   /// Coefficients of material pair (a, b).
+  /// Whether any material pair has rolling resistance (then pairs store a rolling torque).
+  bool rolling() const {
+    return friction &&
+           std::any_of(pair_table.begin(), pair_table.end(),
+                       [](const PairCoefficients& c) { return c.rolling_friction != 0.0; });
+  }
   const PairCoefficients& pair(int a, int b) const {
     return pair_table[static_cast<std::size_t>(a * material_count + b)];
   }

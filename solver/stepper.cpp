@@ -81,7 +81,8 @@ ContactSummary Stepper::dispatch_criterion(Adhesion adhesion) {
 }
 
 void Stepper::compute_forces(double laser_time) {
-  pair_forces_.resize(list_.pair_count(), scene_.friction, scene_.particles.thermal());
+  pair_forces_.resize(list_.pair_count(), scene_.friction, scene_.rolling(),
+                      scene_.particles.thermal());
   if (scene_.friction && history_.sx.size() != list_.pair_count()) {
     history_.resize(list_.pair_count());
   }
@@ -139,7 +140,8 @@ std::vector<SlipRecord> Stepper::collect_slips() const {
 
 void Stepper::apply_slips(std::vector<SlipRecord> slips) {
   // Pair slots are indexed by the new list: start them clean, then refill by ids.
-  pair_forces_.resize(list_.pair_count(), scene_.friction, scene_.particles.thermal());
+  pair_forces_.resize(list_.pair_count(), scene_.friction, scene_.rolling(),
+                      scene_.particles.thermal());
   std::fill(pair_forces_.bonded.begin(), pair_forces_.bonded.end(), std::uint8_t{0});
   if (scene_.friction) history_.resize(list_.pair_count());
   if (slips.empty()) return;
@@ -317,10 +319,11 @@ StepperState Stepper::save_state() const {
 std::vector<Eigen::Vector3d> Stepper::wall_forces() const {
   const std::size_t walls = scene_.walls.size() + scene_.bodies.size();
   std::vector<Eigen::Vector3d> totals(walls, Eigen::Vector3d::Zero());
-  if (wall_forces_.size() != scene_.particles.size() * walls * 3) return totals;  // not evaluated
-  for (std::size_t i = 0; i < scene_.particles.size(); ++i) {
+  if (walls == 0 || wall_forces_.size() % (walls * 3) != 0) return totals;  // not evaluated
+  // Blocks in index order: the same sum whatever the thread count.
+  for (std::size_t block = 0; block < wall_forces_.size() / (walls * 3); ++block) {
     for (std::size_t w = 0; w < walls; ++w) {
-      const double* f = &wall_forces_[(i * walls + w) * 3];
+      const double* f = &wall_forces_[(block * walls + w) * 3];
       totals[w] -= Eigen::Vector3d(f[0], f[1], f[2]);  // reaction on the wall
     }
   }

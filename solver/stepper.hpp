@@ -108,7 +108,7 @@ class Stepper {
   NeighborList list_;
   PairForces pair_forces_;
   PairHistory history_;
-  std::vector<double> wall_forces_;  ///< per particle and wall, from the last evaluation
+  std::vector<double> wall_forces_;  ///< per block of particles and wall, last evaluation
   ContactSummary contacts_;
   double time_ = 0.0;
   std::int64_t step_count_ = 0;
