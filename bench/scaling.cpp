@@ -1,12 +1,15 @@
 // Strong and weak scaling of whole time steps on a settled-like dense lattice (the peers' kind of
 // case), and memory per particle. Usage:
-//   bench_scaling [--friction] [--steps N] [--sizes 1000,10000,...] > scaling.csv
+//   bench_scaling [--friction] [--steps N] [--sizes 1000,10000,...] [--threads T] > scaling.csv
 // One row per (particles, threads): particle-steps per second, speed-up, efficiency, and the peak
-// resident memory of the process divided by the particle count (measured after the largest size,
-// so it bounds the memory per particle from above).
+// resident memory of the process divided by the particle count (a bound from above: the peak of
+// everything the process ran so far). --threads T runs only T threads; bench/scaling.sh runs each
+// row in its own process, so each row's memory is that configuration's alone. Speed-up and
+// efficiency are against the 1-thread row of the same process (1.0 when it did not run).
 #include <omp.h>
 #include <sys/resource.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -41,18 +44,22 @@ double peak_resident_bytes() {
 int main(int argc, char** argv) {
   bool friction = false;
   int steps = 200;
+  int only_threads = 0;
   std::vector<std::size_t> sizes = {1000, 10000, 100000, 1000000};
   for (int a = 1; a < argc; ++a) {
     if (std::strcmp(argv[a], "--friction") == 0) {
       friction = true;
     } else if (std::strcmp(argv[a], "--steps") == 0 && a + 1 < argc) {
       steps = std::atoi(argv[++a]);
+    } else if (std::strcmp(argv[a], "--threads") == 0 && a + 1 < argc) {
+      only_threads = std::atoi(argv[++a]);
     } else if (std::strcmp(argv[a], "--sizes") == 0 && a + 1 < argc) {
       sizes.clear();
       std::stringstream list(argv[++a]);
       for (std::string item; std::getline(list, item, ',');) sizes.push_back(std::stoul(item));
     } else {
-      std::fprintf(stderr, "usage: %s [--friction] [--steps N] [--sizes a,b,c]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--friction] [--steps N] [--sizes a,b,c] [--threads T]\n",
+                   argv[0]);
       return 2;
     }
   }
@@ -61,7 +68,8 @@ int main(int argc, char** argv) {
       "particles,threads,particle_steps_per_second,speedup,efficiency,peak_bytes_per_particle\n");
   for (const std::size_t target : sizes) {
     double single = 0.0;
-    for (int threads = 1; threads <= max_threads; ++threads) {
+    for (int threads = 1; threads <= std::max(max_threads, only_threads); ++threads) {
+      if (only_threads > 0 && threads != only_threads) continue;
       omp_set_num_threads(threads);
       Scene scene = lattice(target, friction);
       Stepper stepper(scene);
@@ -72,7 +80,7 @@ int main(int argc, char** argv) {
           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       const double n = static_cast<double>(scene.particles.size());
       const double rate = n * steps / seconds;
-      if (threads == 1) single = rate;
+      if (threads == 1 || single == 0.0) single = rate;
       std::printf("%zu,%d,%.4g,%.3f,%.3f,%.0f\n", scene.particles.size(), threads, rate,
                   rate / single, rate / single / threads, peak_resident_bytes() / n);
       std::fflush(stdout);

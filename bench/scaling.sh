@@ -1,20 +1,58 @@
 #!/usr/bin/env bash
-# Strong and weak scaling of whole steps, 10^3 to 10^6 particles, 1 to all threads, with and
-# without friction; writes OUT/scaling.csv and OUT/scaling.png. Usage: bench/scaling.sh [OUT]
+# Strong and weak scaling of whole steps on a dense lattice, with and without friction.
+# Usage: bench/scaling.sh [OUT] [BUILD]   (defaults output/scaling, build/release)
+# Writes OUT/strong.csv (10^3..10^6 particles x 1..all threads), OUT/weak.csv (a fixed number of
+# particles per thread) and OUT/scaling.png. Every row runs in its own process, so the peak
+# resident memory it reports per particle is that configuration's alone.
+# STEPS (default 100) sets the timed steps per row, SIZES the strong-scaling sizes, WEAK_SIZE the
+# particles per thread (default 500000); PLOT_ONLY=1 redraws the PNG from the CSVs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out="${1:-output/scaling}"
-mkdir -p "$out"
-bin=build/release/bench/bench_scaling
-if [ "${PLOT_ONLY:-0}" != 1 ]; then  # PLOT_ONLY=1 redraws the PNG from an existing CSV
-{
-  echo "model,$($bin --steps 1 --sizes 1000 | head -1)"
-  $bin --steps 100 --sizes 1000,10000,100000,1000000 | tail -n +2 | sed 's/^/frictionless,/'
-  $bin --friction --steps 100 --sizes 1000,10000,100000,1000000 | tail -n +2 | sed 's/^/friction,/'
-} >"$out/scaling.csv"
-fi
-cat "$out/scaling.csv"
+bin="${2:-build/release}/bench/bench_scaling"
+steps="${STEPS:-100}"
 threads=$(nproc)
+mkdir -p "$out"
+
+# One row: model,particles,threads,particle_steps_per_second,peak_bytes_per_particle
+row() {  # model size threads
+  local flag=""
+  [ "$1" = friction ] && flag="--friction"
+  $bin $flag --steps "$steps" --sizes "$2" --threads "$3" | tail -1 |
+    awk -F, -v model="$1" '{ print model "," $1 "," $2 "," $3 "," $6 }'
+}
+
+# Speed-up and efficiency against the 1-thread row of the same model and size.
+with_speedup() {
+  awk -F, 'BEGIN { OFS = "," }
+    NR == 1 { print $0, "speedup", "efficiency"; next }
+    { rows[NR] = $0; k[NR] = $1 "," $2; t[NR] = $3; r[NR] = $4; if ($3 == 1) single[k[NR]] = $4 }
+    END { for (i = 2; i <= NR; ++i) printf "%s,%.3f,%.3f\n", rows[i], r[i] / single[k[i]], r[i] / single[k[i]] / t[i] }'
+}
+
+if [ "${PLOT_ONLY:-0}" != 1 ]; then
+  {
+    echo "model,particles,threads,particle_steps_per_second,peak_bytes_per_particle"
+    for model in frictionless friction; do
+      for size in ${SIZES:-1000 10000 100000 1000000}; do
+        for t in $(seq 1 "$threads"); do row "$model" "$size" "$t"; done
+      done
+    done
+  } | with_speedup >"$out/strong.csv"
+  # Weak scaling: 500 000 particles per thread; efficiency = rate(T) / (T rate(1)).
+  {
+    echo "model,particles,threads,particle_steps_per_second,peak_bytes_per_particle"
+    for model in frictionless friction; do
+      for t in $(seq 1 "$threads"); do row "$model" $((${WEAK_SIZE:-500000} * t)) "$t"; done
+    done
+  } | awk -F, 'BEGIN { OFS = "," }
+      NR == 1 { print $0, "weak_efficiency"; next }
+      { if ($3 == 1) single[$1] = $4; printf "%s,%.3f\n", $0, $4 / single[$1] / $3 }' >"$out/weak.csv"
+fi
+echo "strong scaling:"
+column -s, -t "$out/strong.csv"
+echo "weak scaling:"
+column -s, -t "$out/weak.csv"
 gnuplot <<GNUPLOT
 set terminal pngcairo size 900,560 font ",11"
 set output "$out/scaling.png"
@@ -24,7 +62,7 @@ set xlabel "particles"
 set ylabel "particle-steps per second (millions)"
 set key left top
 set grid
-plot for [t=1:$threads] "< grep '^frictionless,' $out/scaling.csv | awk -F, '\$3==" . t . "'" using 2:(\$4/1e6) with linespoints title sprintf("frictionless, %d thread(s)", t), \
-     for [t=1:$threads] "< grep '^friction,' $out/scaling.csv | awk -F, '\$3==" . t . "'" using 2:(\$4/1e6) with linespoints dt 2 title sprintf("mu = 0.5, %d thread(s)", t)
+plot for [t=1:$threads] "< grep '^frictionless,' $out/strong.csv | awk -F, '\$3==" . t . "'" using 2:(\$4/1e6) with linespoints title sprintf("frictionless, %d thread(s)", t), \
+     for [t=1:$threads] "< grep '^friction,' $out/strong.csv | awk -F, '\$3==" . t . "'" using 2:(\$4/1e6) with linespoints dt 2 title sprintf("mu = 0.5, %d thread(s)", t)
 GNUPLOT
-echo "scaling: wrote $out/scaling.csv and $out/scaling.png"
+echo "scaling: wrote $out/strong.csv, $out/weak.csv and $out/scaling.png"

@@ -55,11 +55,11 @@ class NeighborList {
 
   std::array<int, 3> cells_{1, 1, 1};
   Eigen::Vector3d cell_width_ = Eigen::Vector3d::Ones();
+  std::vector<double> x0_, y0_, z0_;  ///< positions at the last build
+  // Scratch space of build(), released when it returns.
   std::vector<std::uint32_t> cell_of_;     ///< cell of each particle
   std::vector<std::uint32_t> cell_begin_;  ///< size cells + 1
   std::vector<std::uint32_t> cell_items_;  ///< particles sorted by cell, by index within a cell
-  std::vector<double> x0_, y0_, z0_;       ///< positions at the last build
-  // Scratch space of build(), kept so that rebuilds do not allocate once warmed up.
   std::vector<std::uint32_t> cursor_, row_count_;
   std::vector<std::vector<std::uint32_t>> local_second_;
   std::vector<std::vector<std::uint8_t>> local_image_;
