@@ -12,11 +12,10 @@ namespace {
 
 /// Every double-valued particle field, in file order.
 constexpr std::vector<double> Particles::*kParticleFields[] = {
-    &Particles::x,  &Particles::y,      &Particles::z,          &Particles::vx,
-    &Particles::vy, &Particles::vz,     &Particles::fx,         &Particles::fy,
-    &Particles::fz, &Particles::radius, &Particles::mass,       &Particles::inv_mass,
-    &Particles::wx, &Particles::wy,     &Particles::wz,         &Particles::tx,
-    &Particles::ty, &Particles::tz,     &Particles::inv_inertia};
+    &Particles::x,    &Particles::y,  &Particles::z,  &Particles::vx, &Particles::vy,
+    &Particles::vz,   &Particles::fx, &Particles::fy, &Particles::fz, &Particles::radius,
+    &Particles::mass, &Particles::wx, &Particles::wy, &Particles::wz, &Particles::tx,
+    &Particles::ty,   &Particles::tz};
 
 constexpr char kMagic[8] = {'B', 'O', 'N', 'D', 'E', 'M', 'C', 'K'};
 

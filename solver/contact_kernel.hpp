@@ -203,7 +203,8 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
                 coefficients.rolling_friction == 0.0
                     ? Eigen::Vector3d::Zero()
                     : rolling_torque(coefficients.rolling_friction, r_star, load, spin_i - spin_j,
-                                     1.0 / (p.inv_inertia[i] + p.inv_inertia[j]), scene.time_step);
+                                     1.0 / (p.inverse_inertia(i) + p.inverse_inertia(j)),
+                                     scene.time_step);
             out.roll_x[k] = roll.x();
             out.roll_y[k] = roll.y();
             out.roll_z[k] = roll.z();
@@ -276,7 +277,7 @@ double surface_contact(Particles& p, const Scene& scene, int material, std::size
     slip[2] = t.slip.z();
     force += t.force;
     torque = lever.cross(t.force) + rolling_torque(c.rolling_friction, p.radius[i], -f_n, spin,
-                                                   1.0 / p.inv_inertia[i], scene.time_step);
+                                                   1.0 / p.inverse_inertia(i), scene.time_step);
   }
   return overlap;
 }

@@ -21,10 +21,9 @@ struct Particles {
   std::vector<double> x, y, z;
   std::vector<double> vx, vy, vz;
   std::vector<double> fx, fy, fz;
-  std::vector<double> radius, mass, inv_mass;
-  std::vector<double> wx, wy, wz;   ///< angular velocity [rad/s]
-  std::vector<double> tx, ty, tz;   ///< torque [N m]
-  std::vector<double> inv_inertia;  ///< 1 / (2/5 m r^2) of a solid sphere
+  std::vector<double> radius, mass;
+  std::vector<double> wx, wy, wz;  ///< angular velocity [rad/s]
+  std::vector<double> tx, ty, tz;  ///< torque [N m]
   /// Tangential spring elongation against each wall, 3 values per wall, wall_count() per particle.
   std::vector<double> wall_slip;
   int walls = 0;  ///< walls with a slot in wall_slip
@@ -45,6 +44,13 @@ struct Particles {
 
   /// Number of particles.
   std::size_t size() const { return id.size(); }
+  /// 1 / m of particle i, computed rather than stored: a division per particle and half-kick is
+  /// nothing next to the contacts, and it saves 8 bytes per particle.
+  double inverse_mass(std::size_t i) const { return 1.0 / mass[i]; }
+  /// 1 / I of particle i, a solid sphere: I = 2/5 m r^2.
+  double inverse_inertia(std::size_t i) const {
+    return 1.0 / (0.4 * mass[i] * radius[i] * radius[i]);
+  }
 
   /// Append one particle at rest force-wise; returns its index.
   std::size_t add(std::int64_t particle_id, std::int32_t material_index, double particle_radius,
@@ -62,9 +68,7 @@ struct Particles {
     fz.push_back(0.0);
     radius.push_back(particle_radius);
     mass.push_back(particle_mass);
-    inv_mass.push_back(1.0 / particle_mass);
     for (std::vector<double>* field : {&wx, &wy, &wz, &tx, &ty, &tz}) field->push_back(0.0);
-    inv_inertia.push_back(1.0 / (0.4 * particle_mass * particle_radius * particle_radius));
     wall_slip.resize(wall_slip.size() + static_cast<std::size_t>(3 * walls), 0.0);
     return id.size() - 1;
   }
@@ -84,14 +88,12 @@ struct Particles {
                                        &fz,
                                        &radius,
                                        &mass,
-                                       &inv_mass,
                                        &wx,
                                        &wy,
                                        &wz,
                                        &tx,
                                        &ty,
                                        &tz,
-                                       &inv_inertia,
                                        &temperature,
                                        &peak_temperature,
                                        &inv_heat_capacity,

@@ -185,7 +185,7 @@ void Stepper::step() {
   }
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles)
   for (std::size_t i = 0; i < n; ++i) {
-    const double kick = half_dt * p.inv_mass[i];
+    const double kick = half_dt * p.inverse_mass(i);
     p.vx[i] += kick * p.fx[i];
     p.vy[i] += kick * p.fy[i];
     p.vz[i] += kick * p.fz[i];
@@ -211,7 +211,7 @@ void Stepper::step() {
   bool finite = true;
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) reduction(&& : finite)
   for (std::size_t i = 0; i < n; ++i) {
-    const double kick = half_dt * p.inv_mass[i];
+    const double kick = half_dt * p.inverse_mass(i);
     p.vx[i] += kick * p.fx[i];
     p.vy[i] += kick * p.fy[i];
     p.vz[i] += kick * p.fz[i];
@@ -250,7 +250,7 @@ void Stepper::kick_spin(double half_dt) {
   const std::size_t n = p.size();
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles)
   for (std::size_t i = 0; i < n; ++i) {
-    const double kick = half_dt * p.inv_inertia[i];
+    const double kick = half_dt * p.inverse_inertia(i);
     p.wx[i] += kick * p.tx[i];
     p.wy[i] += kick * p.ty[i];
     p.wz[i] += kick * p.tz[i];
@@ -343,7 +343,8 @@ double Stepper::rotational_energy() const {
   const Particles& p = scene_.particles;
   double energy = 0.0;
   for (std::size_t i = 0; i < p.size(); ++i) {
-    energy += 0.5 / p.inv_inertia[i] * (p.wx[i] * p.wx[i] + p.wy[i] * p.wy[i] + p.wz[i] * p.wz[i]);
+    energy +=
+        0.5 / p.inverse_inertia(i) * (p.wx[i] * p.wx[i] + p.wy[i] * p.wy[i] + p.wz[i] * p.wz[i]);
   }
   return energy;
 }
