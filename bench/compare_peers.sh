@@ -53,7 +53,8 @@ physics() {  # code step -> "ke force"
   local code=$1 step=$2
   if [[ $code == bondem ]]; then
     awk -F, -v t="$(awk -v s="$step" 'BEGIN { print s * 5e-7 }')" \
-      'NR > 1 && ($1 - t < 1e-12 && t - $1 < 1e-12) { printf "%.6g %.6g\n", $2, -$10 }' \
+      'NR == 1 { for (c = 1; c <= NF; ++c) if ($c == "load_floor_z") col = c; next }
+       ($1 - t < 1e-12 && t - $1 < 1e-12) { printf "%.6g %.6g\n", $2, -$col }' \
       "$out/bondem.1/history.csv"
   else
     awk -v s="$step" -v w="$weight" \
