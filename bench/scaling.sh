@@ -4,7 +4,7 @@
 # Writes OUT/strong.csv (10^3..10^6 particles x 1..all threads), OUT/weak.csv (a fixed number of
 # particles per thread) and OUT/scaling.png. Every row runs in its own process, so the peak
 # resident memory it reports per particle is that configuration's alone.
-# STEPS (default 100) sets the timed steps per row, SIZES the strong-scaling sizes, WEAK_SIZE the
+# REPS (default 3) processes per row, median rate; STEPS (default 100) the timed steps per row, SIZES the strong-scaling sizes, WEAK_SIZE the
 # particles per thread (default 500000); PLOT_ONLY=1 redraws the PNG from the CSVs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -14,37 +14,55 @@ steps="${STEPS:-100}"
 threads=$(nproc)
 mkdir -p "$out"
 
-# One row: model,particles,threads,particle_steps_per_second,peak_bytes_per_particle
-row() {  # model size threads
+reps="${REPS:-3}"
+
+# One process: model,particles,threads,particle_steps_per_second,peak_bytes_per_particle.
+run() {  # model size threads
   local flag=""
   [ "$1" = friction ] && flag="--friction"
   $bin $flag --steps "$steps" --sizes "$2" --threads "$3" | tail -1 |
     awk -F, -v model="$1" '{ print model "," $1 "," $2 "," $3 "," $6 }'
 }
 
-# Speed-up and efficiency against the 1-thread row of the same model and size.
-with_speedup() {
-  awk -F, 'BEGIN { OFS = "," }
-    NR == 1 { print $0, "speedup", "efficiency"; next }
-    { rows[NR] = $0; k[NR] = $1 "," $2; t[NR] = $3; r[NR] = $4; if ($3 == 1) single[k[NR]] = $4 }
-    END { for (i = 2; i <= NR; ++i) printf "%s,%.3f,%.3f\n", rows[i], r[i] / single[k[i]], r[i] / single[k[i]] / t[i] }'
+# This machine's speed drifts between runs: every configuration runs REPS times, the thread
+# counts alternating, and a row keeps the median rate and the largest memory.
+sweep() {  # model size... (sizes are per thread when WEAK=1)
+  local model=$1 size t r
+  shift
+  for size in "$@"; do
+    for ((r = 0; r < reps; ++r)); do
+      for t in $(seq 1 "$threads"); do
+        run "$model" $((WEAK ? size * t : size)) "$t"
+      done
+    done
+  done
 }
+median_rows() {
+  sort -t, -k1,1 -k2,2n -k3,3n -k4,4g | awk -F, 'BEGIN { OFS = "," }
+    function flush() { if (count) print key, (count % 2) ? rate[(count + 1) / 2] : (rate[count / 2] + rate[count / 2 + 1]) / 2, memory }
+    { k = $1 "," $2 "," $3
+      if (k != key) { flush(); key = k; count = 0; memory = 0 }
+      rate[++count] = $4; if ($5 > memory) memory = $5 }
+    END { flush() }'
+}
+header="model,particles,threads,particle_steps_per_second,peak_bytes_per_particle"
 
 if [ "${PLOT_ONLY:-0}" != 1 ]; then
   {
-    echo "model,particles,threads,particle_steps_per_second,peak_bytes_per_particle"
+    echo "$header"
     for model in frictionless friction; do
-      for size in ${SIZES:-1000 10000 100000 1000000}; do
-        for t in $(seq 1 "$threads"); do row "$model" "$size" "$t"; done
-      done
-    done
-  } | with_speedup >"$out/strong.csv"
-  # Weak scaling: 500 000 particles per thread; efficiency = rate(T) / (T rate(1)).
+      WEAK=0 sweep "$model" ${SIZES:-1000 10000 100000 1000000}
+    done | median_rows
+  } | awk -F, 'BEGIN { OFS = "," }
+      NR == 1 { print $0, "speedup", "efficiency"; next }
+      { rows[NR] = $0; k[NR] = $1 "," $2; t[NR] = $3; r[NR] = $4; if ($3 == 1) single[k[NR]] = $4 }
+      END { for (i = 2; i <= NR; ++i) printf "%s,%.3f,%.3f\n", rows[i], r[i] / single[k[i]], r[i] / single[k[i]] / t[i] }' \
+    >"$out/strong.csv"
+  # Weak scaling: WEAK_SIZE particles per thread; efficiency = rate(T) / (T rate(1)).
   {
-    echo "model,particles,threads,particle_steps_per_second,peak_bytes_per_particle"
-    for model in frictionless friction; do
-      for t in $(seq 1 "$threads"); do row "$model" $((${WEAK_SIZE:-500000} * t)) "$t"; done
-    done
+    echo "$header"
+    for model in frictionless friction; do WEAK=1 sweep "$model" "${WEAK_SIZE:-500000}"; done |
+      median_rows
   } | awk -F, 'BEGIN { OFS = "," }
       NR == 1 { print $0, "weak_efficiency"; next }
       { if ($3 == 1) single[$1] = $4; printf "%s,%.3f\n", $0, $4 / single[$1] / $3 }' >"$out/weak.csv"
