@@ -5,7 +5,8 @@
 # particles per thread) and OUT/scaling.png. Every row runs in its own process, so the peak
 # resident memory it reports per particle is that configuration's alone.
 # REPS (default 3) processes per row, median rate; STEPS (default 100) the timed steps per row, SIZES the strong-scaling sizes, WEAK_SIZE the
-# particles per thread (default 500000); PLOT_ONLY=1 redraws the PNG from the CSVs.
+# particles per thread (default 500000); PARTS="strong weak" (default) or one of them reruns only
+# that table; PLOT_ONLY=1 redraws the PNG from the CSVs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out="${1:-output/scaling}"
@@ -47,7 +48,8 @@ median_rows() {
 }
 header="model,particles,threads,particle_steps_per_second,peak_bytes_per_particle"
 
-if [ "${PLOT_ONLY:-0}" != 1 ]; then
+parts="${PARTS:-strong weak}"
+if [ "${PLOT_ONLY:-0}" != 1 ] && [[ $parts == *strong* ]]; then
   {
     echo "$header"
     for model in frictionless friction; do
@@ -58,6 +60,8 @@ if [ "${PLOT_ONLY:-0}" != 1 ]; then
       { rows[NR] = $0; k[NR] = $1 "," $2; t[NR] = $3; r[NR] = $4; if ($3 == 1) single[k[NR]] = $4 }
       END { for (i = 2; i <= NR; ++i) printf "%s,%.3f,%.3f\n", rows[i], r[i] / single[k[i]], r[i] / single[k[i]] / t[i] }' \
     >"$out/strong.csv"
+fi
+if [ "${PLOT_ONLY:-0}" != 1 ] && [[ $parts == *weak* ]]; then
   # Weak scaling: WEAK_SIZE particles per thread; efficiency = rate(T) / (T rate(1)).
   {
     echo "$header"
