@@ -146,15 +146,23 @@ void NeighborList::build(Particles& p, const Domain& domain, double skin, bool r
           for (int dx = -1; dx <= 1; ++dx) {
             const int offset[3] = {dx, dy, dz};
             int neighbor[3];
+            // Image of the cell's particles seen from i: a cell reached across a periodic face
+            // holds particles one period away. Periodic axes have at least three cells, wider
+            // than the reach, so this is the one image that can be within reach.
+            int s[3] = {0, 0, 0};
             bool inside = true;
             for (int a = 0; a < 3; ++a) {
               neighbor[a] = home[a] + offset[a];
               if (domain.periodic[a]) {
-                neighbor[a] = (neighbor[a] + cells_[a]) % cells_[a];
+                s[a] = neighbor[a] < 0 ? 1 : (neighbor[a] >= cells_[a] ? -1 : 0);
+                neighbor[a] += s[a] * cells_[a];
+                s[a] = -s[a];
               } else if (neighbor[a] < 0 || neighbor[a] >= cells_[a]) {
                 inside = false;
               }
             }
+            const double shift[3] = {s[0] * length[0], s[1] * length[1], s[2] * length[2]};
+            const std::uint8_t code = image_code(s[0], s[1], s[2]);
             // With one or two cells on a non-periodic axis the offsets -1 and +1 are skipped or
             // distinct; with three or more periodic cells they are distinct too: no duplicates.
             if (!inside) continue;
@@ -166,17 +174,12 @@ void NeighborList::build(Particles& p, const Domain& domain, double skin, bool r
             for (std::uint32_t k = cell_begin_[cell]; k < cell_begin_[cell + 1]; ++k) {
               const std::uint32_t j = cell_items_[k];
               if (j <= i) continue;
-              double d[3] = {p.x[j] - p.x[i], p.y[j] - p.y[i], p.z[j] - p.z[i]};
-              int s[3] = {0, 0, 0};
-              for (int a = 0; a < 3; ++a) {
-                if (!domain.periodic[a]) continue;
-                s[a] = -static_cast<int>(std::nearbyint(d[a] / length[a]));
-                d[a] += s[a] * length[a];
-              }
+              const double d[3] = {p.x[j] - p.x[i] + shift[0], p.y[j] - p.y[i] + shift[1],
+                                   p.z[j] - p.z[i] + shift[2]};
               const double reach = p.radius[i] + p.radius[j] + skin;
               if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < reach * reach) {
                 my_second.push_back(j);
-                my_image.push_back(image_code(s[0], s[1], s[2]));
+                my_image.push_back(code);
               }
             }
           }
