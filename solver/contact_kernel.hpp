@@ -326,7 +326,7 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) \
     reduction(+ : wall_contacts) reduction(max : max_overlap, max_fraction, thermal_ratio)
   for (std::size_t block = 0; block < blocks; ++block) {
-    double* block_load = &wall_forces[block * walls * 3];
+    double* block_load = wall_forces.data() + block * walls * 3;  // no walls: never written
     for (std::size_t i = block * kWallLoadBlock; i < std::min(n, (block + 1) * kWallLoadBlock);
          ++i) {
       Eigen::Vector3d f = p.mass[i] * g;
