@@ -85,6 +85,7 @@ class Reader {
  private:
   void take(void* out, std::size_t size) {
     if (size > bytes_.size() - offset_) fail("truncated");
+    if (size == 0) return;  // an empty vector's data() may be null, which memcpy must not get
     std::memcpy(out, bytes_.data() + offset_, size);
     offset_ += size;
   }
