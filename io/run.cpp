@@ -85,6 +85,19 @@ void write_final_state(const Particles& p, const std::string& path,
   file.commit();
 }
 
+/// Copies into @p to the fields write_final_state reads (ids, positions, velocities, radii): the
+/// last good state kept for a blow-up, at about a third of the memory of a full copy.
+void keep_last_good(const Particles& from, Particles& to) {
+  to.id = from.id;
+  to.x = from.x;
+  to.y = from.y;
+  to.z = from.z;
+  to.vx = from.vx;
+  to.vy = from.vy;
+  to.vz = from.vz;
+  to.radius = from.radius;
+}
+
 }  // namespace
 
 namespace {
@@ -282,7 +295,8 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
   }
 
   // The last state known to be sound, for a blow-up report.
-  Particles last_good = scene.particles;
+  Particles last_good;
+  keep_last_good(scene.particles, last_good);
   const std::size_t n = scene.particles.size();
   Progress progress(log, options.quiet, stepper.step_count(), steps, n);
   using Clock = std::chrono::steady_clock;
@@ -308,7 +322,7 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
     }
     if (s % history_every == 0 || s == steps) {
       record();
-      last_good = scene.particles;
+      keep_last_good(scene.particles, last_good);
     }
     if (vtk && (s % vtk_every == 0 || s == steps)) vtk->write(scene, stepper);
     if (s % checkpoint_every == 0 && s != steps) checkpoint();

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -176,7 +177,21 @@ TEST(BlowUp, TooLargeTimeStepIsCaughtWithItsCause) {
     EXPECT_NE(message.find("particle id"), std::string::npos) << message;
     EXPECT_NE(message.find("time.step"), std::string::npos) << message;
   }
-  EXPECT_TRUE(fs::exists(directory / "last_good_state.csv"));
+  // The last good state is a whole, finite snapshot: one row per particle after the header.
+  std::ifstream last_good(directory / "last_good_state.csv");
+  ASSERT_TRUE(last_good.good());
+  std::string line;
+  std::getline(last_good, line);
+  EXPECT_EQ(line, "id,x,y,z,vx,vy,vz,radius");
+  std::size_t rows = 0;
+  while (std::getline(last_good, line)) {
+    ++rows;
+    std::stringstream fields(line);
+    for (std::string field; std::getline(fields, field, ',');) {
+      EXPECT_TRUE(std::isfinite(std::stod(field))) << line;
+    }
+  }
+  EXPECT_EQ(rows, c.particles.size());
   EXPECT_FALSE(fs::exists(directory / "final_state.csv"));
   // And without the override the run does not even start.
   options.enforce_time_step_limit = true;
