@@ -74,6 +74,18 @@ inline SurfacePoint nearest_surface(const Body& body, const Eigen::Vector3d& c) 
   return {-depth[axis], normal};
 }
 
+/// True when a sphere of radius @p r centred at @p c cannot touch @p body: the same test as
+/// nearest_surface(body, c).gap >= r, decided on squared distances without a root or a division.
+inline bool surely_apart(const Body& body, const Eigen::Vector3d& c, double r) {
+  const Eigen::Vector3d w = c - body.center;
+  if (body.shape == Body::Shape::kCylinder) {
+    const double reach = body.radius + r;
+    return (w - w.dot(body.axis) * body.axis).squaredNorm() >= reach * reach;
+  }
+  const Eigen::Vector3d clamped = w.cwiseMax(-body.half_size).cwiseMin(body.half_size);
+  return (w - clamped).squaredNorm() >= r * r;
+}
+
 /// Velocity of the body's surface material at @p point (translation plus spin).
 inline Eigen::Vector3d surface_velocity(const Body& body, const Eigen::Vector3d& point) {
   if (body.shape != Body::Shape::kCylinder || body.spin == 0.0) return body.velocity;

@@ -282,7 +282,8 @@ double surface_contact(Particles& p, const Scene& scene, int material, std::size
   return overlap;
 }
 
-/// Contact of particle i with boundary @p b: the walls first, then the moving bodies.
+/// Contact of particle i with boundary @p b: the walls first, then the moving bodies. Returns the
+/// overlap when positive; without contact, a value <= 0 (for a body far away, just 0).
 template <bool kFriction>
 double boundary_contact(Particles& p, const Scene& scene, std::size_t b, std::size_t i,
                         Eigen::Vector3d& force, Eigen::Vector3d& torque) {
@@ -294,6 +295,17 @@ double boundary_contact(Particles& p, const Scene& scene, std::size_t b, std::si
   }
   const Body& body = scene.bodies[b - scene.walls.size()];
   const Eigen::Vector3d centre(p.x[i], p.y[i], p.z[i]);
+  if (surely_apart(body, centre, p.radius[i])) {
+    // Most particles are far from a tool: skip its exact distance and the law. The result is
+    // that of surface_contact without contact; the overlap returned is only known to be <= 0.
+    force.setZero();
+    torque.setZero();
+    if constexpr (kFriction) {
+      double* slip = &p.wall_slip[(i * static_cast<std::size_t>(p.walls) + b) * 3];
+      slip[0] = slip[1] = slip[2] = 0.0;
+    }
+    return 0.0;
+  }
   const SurfacePoint surface = nearest_surface(body, centre);
   const Eigen::Vector3d point = centre - surface.gap * surface.normal;
   return surface_contact<kFriction>(p, scene, body.material, b, i, surface.gap, surface.normal,
