@@ -2,6 +2,8 @@
 // spinning roller drags particles along its surface velocity.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "scene_builders.hpp"
 #include "solver/scene.hpp"
 #include "solver/stepper.hpp"
@@ -28,6 +30,37 @@ Case row_on_floor(int count) {
   c.domain = d;
   c.time_step = 2e-7;
   return c;
+}
+
+TEST(Tools, QuickApartTestAgreesWithTheExactGap) {
+  // The kernel skips a tool when surely_apart holds; it must hold exactly when the exact gap
+  // reaches the radius. Points on a grid around a box and a slanted cylinder, radius 1 mm; the
+  // two agree except within rounding of the gap (1e-12 m here) of the touching distance.
+  Body box;
+  box.center = Eigen::Vector3d(0.1, -0.2, 0.3);
+  box.half_size = Eigen::Vector3d(0.002, 0.004, 0.001);
+  Body cylinder;
+  cylinder.shape = Body::Shape::kCylinder;
+  cylinder.center = box.center;
+  cylinder.axis = Eigen::Vector3d(1.0, 2.0, 0.5).normalized();
+  cylinder.radius = 0.003;
+  const double r = 1e-3;
+  int apart = 0, touching = 0;
+  for (const Body* body : {&box, &cylinder}) {
+    for (int a = -12; a <= 12; ++a) {
+      for (int b = -12; b <= 12; ++b) {
+        for (int c = -12; c <= 12; ++c) {
+          const Eigen::Vector3d point = body->center + 0.00053 * Eigen::Vector3d(a, b, c);
+          const double gap = nearest_surface(*body, point).gap;
+          if (std::abs(gap - r) < 1e-12) continue;
+          EXPECT_EQ(surely_apart(*body, point, r), gap >= r) << a << ' ' << b << ' ' << c;
+          (gap >= r ? apart : touching) += 1;
+        }
+      }
+    }
+  }
+  EXPECT_GT(apart, 1000);  // both outcomes are exercised
+  EXPECT_GT(touching, 1000);
 }
 
 TEST(Blade, PushesParticlesAndItsLoadBalancesTheirMomentum) {
