@@ -17,9 +17,6 @@ void release(std::vector<T>& buffer) {
   std::vector<T>().swap(buffer);
 }
 
-}  // namespace
-namespace {
-
 constexpr std::uint8_t image_code(int sx, int sy, int sz) {
   return static_cast<std::uint8_t>((sx + 1) + 3 * (sy + 1) + 9 * (sz + 1));
 }
@@ -154,9 +151,13 @@ void NeighborList::build(Particles& p, const Domain& domain, double skin, bool r
             for (int a = 0; a < 3; ++a) {
               neighbor[a] = home[a] + offset[a];
               if (domain.periodic[a]) {
-                s[a] = neighbor[a] < 0 ? 1 : (neighbor[a] >= cells_[a] ? -1 : 0);
-                neighbor[a] += s[a] * cells_[a];
-                s[a] = -s[a];
+                if (neighbor[a] < 0) {  // wrapped to the top cell: its particles one period down
+                  neighbor[a] += cells_[a];
+                  s[a] = -1;
+                } else if (neighbor[a] >= cells_[a]) {  // to the bottom cell: one period up
+                  neighbor[a] -= cells_[a];
+                  s[a] = 1;
+                }
               } else if (neighbor[a] < 0 || neighbor[a] >= cells_[a]) {
                 inside = false;
               }
