@@ -339,8 +339,8 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
     reduction(+ : wall_contacts) reduction(max : max_overlap, max_fraction, thermal_ratio)
   for (std::size_t block = 0; block < blocks; ++block) {
     double* block_load = wall_forces.data() + block * walls * 3;  // no walls: never written
-    for (std::size_t i = block * kWallLoadBlock; i < std::min(n, (block + 1) * kWallLoadBlock);
-         ++i) {
+    const std::size_t block_end = std::min(n, (block + 1) * kWallLoadBlock);
+    for (std::size_t i = block * kWallLoadBlock; i < block_end; ++i) {
       Eigen::Vector3d f = p.mass[i] * g;
       Eigen::Vector3d tau = Eigen::Vector3d::Zero();
       double heat = 0.0;

@@ -12,6 +12,7 @@
 #include "io/case_file.hpp"
 #include "io/run.hpp"
 #include "io/vtk_output.hpp"
+#include "run_helpers.hpp"
 #include "solver/track_metrics.hpp"
 
 namespace bondem {
@@ -40,12 +41,9 @@ std::vector<Row> read_final_state(const std::filesystem::path& path) {
 TEST(LaserCase, CiVariantBondsAlongTheTrackOnly) {
   const Case c = load_case(BONDEM_CASES_DIR "/laser_sintering_ci.yaml");
   ASSERT_TRUE(c.laser && c.thermal);
-  RunOptions options;
-  options.output_directory =
-      (std::filesystem::path(::testing::TempDir()) / "bondem_laser_ci").string();
-  options.quiet = true;
-  std::ostringstream log;
-  const RunResult r = run_case(c, options, log);
+  const std::filesystem::path directory =
+      std::filesystem::path(::testing::TempDir()) / "bondem_laser_ci";
+  const RunResult r = testing::quiet_run(c, directory);
   ASSERT_TRUE(r.thermal.has_value());
   const ThermalReport& t = *r.thermal;
   const Laser& laser = *c.laser;
@@ -63,8 +61,7 @@ TEST(LaserCase, CiVariantBondsAlongTheTrackOnly) {
   EXPECT_GT(r.bonds_formed, 0);
   EXPECT_EQ(r.bonds_broken, 0);
   EXPECT_GT(t.clusters_of_two_or_more, 0u);
-  const std::vector<Row> rows =
-      read_final_state(std::filesystem::path(options.output_directory) / "final_state.csv");
+  const std::vector<Row> rows = read_final_state(directory / "final_state.csv");
   ASSERT_EQ(rows.size(), c.particles.size());
   int bonded_particles = 0;
   for (const Row& row : rows) {
@@ -90,7 +87,6 @@ TEST(LaserCase, CiVariantBondsAlongTheTrackOnly) {
   EXPECT_GT(t.track.peak_temperature, c.bond.temperature);
 
   // Temperatures reach ParaView.
-  const std::filesystem::path directory(options.output_directory);
   std::filesystem::path newest;
   for (const auto& entry : std::filesystem::directory_iterator(directory)) {
     const std::string name = entry.path().filename().string();

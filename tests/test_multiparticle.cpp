@@ -9,6 +9,7 @@
 
 #include "io/case_file.hpp"
 #include "io/run.hpp"
+#include "run_helpers.hpp"
 #include "scene_builders.hpp"
 #include "solver/neighbors.hpp"
 #include "solver/scene.hpp"
@@ -17,26 +18,15 @@
 namespace bondem {
 namespace {
 
-std::string read_file(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
-
 /// Runs @p c with @p threads threads into a fresh directory; returns final_state.csv's bytes.
 std::string final_state_with(const Case& c, int threads, const std::string& name) {
   const auto directory = std::filesystem::path(::testing::TempDir()) / name;
   std::filesystem::remove_all(directory);
   const int saved = omp_get_max_threads();
   omp_set_num_threads(threads);
-  RunOptions options;
-  options.output_directory = directory.string();
-  options.quiet = true;
-  std::ostringstream log;
-  run_case(c, options, log);
+  testing::quiet_run(c, directory);
   omp_set_num_threads(saved);
-  return read_file(directory / "final_state.csv");
+  return testing::file_bytes(directory / "final_state.csv");
 }
 
 TEST(Determinism, SameBytesAtOneAndTwoThreads) {

@@ -12,24 +12,12 @@
 #include "io/checkpoint.hpp"
 #include "io/run.hpp"
 #include "io/vtk_output.hpp"
+#include "run_helpers.hpp"
 
 namespace bondem {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string slurp(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
-
-fs::path fresh_directory(const std::string& name) {
-  const fs::path directory = fs::path(::testing::TempDir()) / ("bondem_run_io_" + name);
-  fs::remove_all(directory);
-  return directory;
-}
 
 /// The CI packing case shortened; 2500 particles so that the parallel loops are used.
 Case short_packing(double end_time) {
@@ -39,54 +27,47 @@ Case short_packing(double end_time) {
                     "output.history_interval=0.0015"});
 }
 
-RunResult run(const Case& c, const fs::path& directory, const std::string& restart = "",
-              const volatile std::sig_atomic_t* stop = nullptr) {
-  RunOptions options;
-  options.output_directory = directory.string();
-  options.quiet = true;
-  options.restart_path = restart;
-  options.stop_requested = stop;
-  std::ostringstream log;
-  return run_case(c, options, log);
-}
-
 TEST(Restart, ContinuingACheckpointGivesTheSameBytes) {
-  const fs::path whole = fresh_directory("whole");
-  const fs::path half = fresh_directory("half");
-  run(short_packing(0.012), whole);
-  run(short_packing(0.006), half);
+  const fs::path whole = testing::fresh_directory("run_io_whole");
+  const fs::path half = testing::fresh_directory("run_io_half");
+  testing::quiet_run(short_packing(0.012), whole);
+  testing::quiet_run(short_packing(0.006), half);
   // The end time is not part of the fingerprint: a checkpoint can be continued further.
-  run(short_packing(0.012), half, (half / "checkpoint.bin").string());
-  EXPECT_TRUE(slurp(whole / "final_state.csv") == slurp(half / "final_state.csv"));
-  EXPECT_TRUE(slurp(whole / "history.csv") == slurp(half / "history.csv"));
+  testing::quiet_run(short_packing(0.012), half, (half / "checkpoint.bin").string());
+  EXPECT_TRUE(testing::file_bytes(whole / "final_state.csv") ==
+              testing::file_bytes(half / "final_state.csv"));
+  EXPECT_TRUE(testing::file_bytes(whole / "history.csv") ==
+              testing::file_bytes(half / "history.csv"));
 }
 
 TEST(Restart, InterruptedRunResumesToTheSameResult) {
-  const fs::path whole = fresh_directory("uninterrupted");
-  const fs::path stopped = fresh_directory("interrupted");
+  const fs::path whole = testing::fresh_directory("run_io_uninterrupted");
+  const fs::path stopped = testing::fresh_directory("run_io_interrupted");
   const Case c = short_packing(0.01);
-  run(c, whole);
+  testing::quiet_run(c, whole);
   volatile std::sig_atomic_t stop = 1;  // as if SIGINT arrived during the first step
-  EXPECT_THROW(run(c, stopped, "", &stop), RunInterrupted);
+  EXPECT_THROW(testing::quiet_run(c, stopped, "", &stop), RunInterrupted);
   ASSERT_TRUE(fs::exists(stopped / "checkpoint.bin"));
   ASSERT_TRUE(fs::exists(stopped / "final_state.csv"));  // outputs of the state reached
-  EXPECT_FALSE(slurp(whole / "final_state.csv") == slurp(stopped / "final_state.csv"));
-  run(c, stopped, (stopped / "checkpoint.bin").string());
-  EXPECT_TRUE(slurp(whole / "final_state.csv") == slurp(stopped / "final_state.csv"));
+  EXPECT_FALSE(testing::file_bytes(whole / "final_state.csv") ==
+               testing::file_bytes(stopped / "final_state.csv"));
+  testing::quiet_run(c, stopped, (stopped / "checkpoint.bin").string());
+  EXPECT_TRUE(testing::file_bytes(whole / "final_state.csv") ==
+              testing::file_bytes(stopped / "final_state.csv"));
 }
 
 TEST(Restart, VtkSeriesContinuesAcrossARestart) {
-  const fs::path whole = fresh_directory("vtk_whole");
-  const fs::path resumed = fresh_directory("vtk_resumed");
+  const fs::path whole = testing::fresh_directory("run_io_vtk_whole");
+  const fs::path resumed = testing::fresh_directory("run_io_vtk_resumed");
   Case c = short_packing(0.006);
   c.vtk_interval = 0.0015;
-  run(c, whole);
+  testing::quiet_run(c, whole);
   volatile std::sig_atomic_t stop = 1;
-  EXPECT_THROW(run(c, resumed, "", &stop), RunInterrupted);
-  run(c, resumed, (resumed / "checkpoint.bin").string());
+  EXPECT_THROW(testing::quiet_run(c, resumed, "", &stop), RunInterrupted);
+  testing::quiet_run(c, resumed, (resumed / "checkpoint.bin").string());
   // Frames at 0, 1.5, 3, 4.5, 6 ms in both; the resumed series also keeps the frame written at
   // the interruption (step 1), which lies between the first two.
-  const std::string series = slurp(whole / "particles.pvd");
+  const std::string series = testing::file_bytes(whole / "particles.pvd");
   EXPECT_EQ(std::count(series.begin(), series.end(), '\n'),
             5 + 5);  // five frames, five lines of XML
   const VtpContents last = read_vtp((whole / "particles_000004.vtp").string());
@@ -95,7 +76,7 @@ TEST(Restart, VtkSeriesContinuesAcrossARestart) {
   ASSERT_NE(last.point_array("bond_count"), nullptr);
   ASSERT_NE(last.point_array("angular_velocity"), nullptr);
   EXPECT_EQ(last.point_array("angular_velocity")->components, 3);
-  const std::string resumed_series = slurp(resumed / "particles.pvd");
+  const std::string resumed_series = testing::file_bytes(resumed / "particles.pvd");
   EXPECT_EQ(std::count(resumed_series.begin(), resumed_series.end(), '\n'), 6 + 5);
   // The last frames hold the same particles at the same time.
   const VtpContents resumed_last = read_vtp((resumed / "particles_000005.vtp").string());
@@ -106,9 +87,10 @@ class BadCheckpoint : public ::testing::Test {
  protected:
   void SetUp() override {
     // ctest runs these cases concurrently: one directory each.
-    directory_ = fresh_directory(::testing::UnitTest::GetInstance()->current_test_info()->name());
-    run(short_packing(0.0003), directory_);
-    good_ = slurp(directory_ / "checkpoint.bin");
+    directory_ = testing::fresh_directory(
+        "run_io_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    testing::quiet_run(short_packing(0.0003), directory_);
+    good_ = testing::file_bytes(directory_ / "checkpoint.bin");
     ASSERT_GT(good_.size(), 1000u);
   }
   /// The error of restarting from @p bytes (or from @p c's mismatch), "" if accepted.
@@ -116,7 +98,7 @@ class BadCheckpoint : public ::testing::Test {
     const fs::path path = directory_ / "tampered.bin";
     std::ofstream(path, std::ios::binary) << bytes;
     try {
-      run(c, directory_ / "resumed", path.string());
+      testing::quiet_run(c, directory_ / "resumed", path.string());
     } catch (const CaseError& e) {
       return e.what();
     }
@@ -159,7 +141,7 @@ TEST_F(BadCheckpoint, OtherCaseIsRefused) {
 }
 
 TEST(BlowUp, TooLargeTimeStepIsCaughtWithItsCause) {
-  const fs::path directory = fresh_directory("blow_up");
+  const fs::path directory = testing::fresh_directory("run_io_blow_up");
   Case c = short_packing(0.05);
   const double limit = c.time_step;
   c.time_step = 40.0 * limit;  // contacts resolved in about two steps

@@ -8,18 +8,16 @@
 #include "io/case_file.hpp"
 #include "io/run.hpp"
 #include "io/vtk_output.hpp"
+#include "run_helpers.hpp"
 
 namespace bondem {
 namespace {
 
 TEST(Spreading, CiVariantLeavesAPlausibleLayer) {
   const Case c = load_case(BONDEM_CASES_DIR "/powder_spreading_ci.yaml");
-  RunOptions options;
-  options.output_directory =
-      (std::filesystem::path(::testing::TempDir()) / "bondem_spreading_ci").string();
-  options.quiet = true;
-  std::ostringstream log;
-  const RunResult r = run_case(c, options, log);
+  const std::filesystem::path directory =
+      std::filesystem::path(::testing::TempDir()) / "bondem_spreading_ci";
+  const RunResult r = testing::quiet_run(c, directory);
   ASSERT_TRUE(r.layer.has_value());
   const LayerMetrics& layer = *r.layer;
   const double gap = c.layer->layer_height;
@@ -35,7 +33,6 @@ TEST(Spreading, CiVariantLeavesAPlausibleLayer) {
   EXPECT_EQ(r.largest_cluster, 1u);  // criterion never: no agglomerates
 
   // The blade is in the VTK output as a closed box that moved along x.
-  const std::filesystem::path directory(options.output_directory);
   ASSERT_TRUE(std::filesystem::exists(directory / "tools.pvd"));
   const VtpContents first = read_vtp((directory / "tools_000000.vtp").string());
   const VtpContents last = read_vtp((directory / "tools_000011.vtp").string());

@@ -22,6 +22,7 @@
 
 #include "io/case_file.hpp"
 #include "io/run.hpp"
+#include "run_helpers.hpp"
 #include "scene_builders.hpp"
 #include "solver/calculator.hpp"
 #include "solver/laser.hpp"
@@ -741,19 +742,6 @@ TEST(ThermalDeterminism, SameBytesAtOneAndTwoThreads) {
 
 namespace fs = std::filesystem;
 
-std::string slurp(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
-
-fs::path fresh_directory(const std::string& name) {
-  const fs::path directory = fs::path(::testing::TempDir()) / ("bondem_thermal_" + name);
-  fs::remove_all(directory);
-  return directory;
-}
-
 /// The CI sintering case shortened to 4000 steps: the laser starts at 50 us and crosses the strip
 /// at 2 m/s with 20 W from 1150 K, so bonds form while it runs; a history row every 200 steps.
 Case short_sintering(double end_time) {
@@ -763,26 +751,17 @@ Case short_sintering(double end_time) {
                     "output.history_interval=1.3e-5", "output.vtk_interval=1"});
 }
 
-RunResult run_sintering(const Case& c, const fs::path& directory, const std::string& restart = "") {
-  RunOptions options;
-  options.output_directory = directory.string();
-  options.quiet = true;
-  options.restart_path = restart;
-  std::ostringstream log;
-  return run_case(c, options, log);
-}
-
 TEST(ThermalRestart, ContinuingACheckpointGivesTheSameBytes) {
   // As Restart.ContinuingACheckpointGivesTheSameBytes: once whole to 260 us (4000 steps), once to
   // 208 us (3200 steps, a multiple of the history interval, with the beam on and bonds already
   // formed) and continued from its checkpoint. Temperatures, peak temperatures, bonds, laser
   // energy and history rows must be the same bytes.
-  const fs::path whole = fresh_directory("whole");
-  const fs::path parts = fresh_directory("parts");
-  const RunResult full = run_sintering(short_sintering(0.00026), whole);
-  const RunResult first = run_sintering(short_sintering(0.000208), parts);
+  const fs::path whole = testing::fresh_directory("thermal_whole");
+  const fs::path parts = testing::fresh_directory("thermal_parts");
+  const RunResult full = testing::quiet_run(short_sintering(0.00026), whole);
+  const RunResult first = testing::quiet_run(short_sintering(0.000208), parts);
   const RunResult second =
-      run_sintering(short_sintering(0.00026), parts, (parts / "checkpoint.bin").string());
+      testing::quiet_run(short_sintering(0.00026), parts, (parts / "checkpoint.bin").string());
   ASSERT_TRUE(full.thermal && first.thermal && second.thermal);
   EXPECT_GT(first.bonds_formed, 0) << "bonds must cross the checkpoint";
   EXPECT_GT(full.bonds_formed, first.bonds_formed) << "and more must form after it";
@@ -790,10 +769,11 @@ TEST(ThermalRestart, ContinuingACheckpointGivesTheSameBytes) {
   EXPECT_GT(full.thermal->laser_energy, first.thermal->laser_energy);
   EXPECT_EQ(second.bonds_formed, full.bonds_formed);
   EXPECT_EQ(second.thermal->laser_energy, full.thermal->laser_energy);
-  const std::string final_whole = slurp(whole / "final_state.csv");
+  const std::string final_whole = testing::file_bytes(whole / "final_state.csv");
   EXPECT_NE(final_whole.find("temperature,peak_temperature"), std::string::npos);
-  EXPECT_TRUE(final_whole == slurp(parts / "final_state.csv"));
-  EXPECT_TRUE(slurp(whole / "history.csv") == slurp(parts / "history.csv"));
+  EXPECT_TRUE(final_whole == testing::file_bytes(parts / "final_state.csv"));
+  EXPECT_TRUE(testing::file_bytes(whole / "history.csv") ==
+              testing::file_bytes(parts / "history.csv"));
   RecordProperty("bonds_at_checkpoint", static_cast<int>(first.bonds_formed));
   RecordProperty("bonds_at_end", static_cast<int>(full.bonds_formed));
 }

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "io/vtk_output.hpp"
+#include "run_helpers.hpp"
 
 namespace bondem {
 namespace {
@@ -23,16 +24,9 @@ namespace fs = std::filesystem;
 
 constexpr std::size_t kParticles = 50;
 
-std::string slurp(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
 /// (timestep, file) of every DataSet entry of a .pvd file, in file order.
 std::vector<std::pair<double, std::string>> pvd_entries(const fs::path& path) {
-  const std::string text = slurp(path);
+  const std::string text = testing::file_bytes(path);
   EXPECT_NE(text.find("<VTKFile type=\"Collection\""), std::string::npos) << path;
   EXPECT_NE(text.find("</VTKFile>"), std::string::npos) << path;
   static const std::regex entry(R"re(<DataSet timestep="([^"]+)"[^>]*file="([^"]+)"\s*/>)re");
@@ -276,7 +270,7 @@ TEST_F(VtkOutput, FilesAreBinaryAppendedAndZlibCompressed) {
   set_forces(p, 0);
   writer.write_frame(0.0, p, make_contacts(p, 0), make_walls(), make_domain());
   for (const char* file : {"particles_000000.vtp", "contacts_000000.vtp", "walls_000000.vtp"}) {
-    const std::string text = slurp(root_ / file);
+    const std::string text = testing::file_bytes(root_ / file);
     const std::string header = text.substr(0, text.find("<AppendedData"));
     EXPECT_NE(header.find("compressor=\"vtkZLibDataCompressor\""), std::string::npos) << file;
     EXPECT_NE(header.find("format=\"appended\""), std::string::npos) << file;

@@ -1,0 +1,46 @@
+#pragma once
+// File and run helpers shared by the tests that run whole cases.
+#include <gtest/gtest.h>
+
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "io/run.hpp"
+
+namespace bondem::testing {
+
+/// The whole content of the file at @p path, byte for byte ("" if it cannot be read).
+inline std::string file_bytes(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+/// An empty output directory bondem_<name> under the test temporary directory; names must be
+/// unique across test files, which ctest runs in parallel.
+inline std::filesystem::path fresh_directory(const std::string& name) {
+  const std::filesystem::path directory =
+      std::filesystem::path(::testing::TempDir()) / ("bondem_" + name);
+  std::filesystem::remove_all(directory);
+  return directory;
+}
+
+/// run_case into @p directory without progress output, optionally from a checkpoint and with a
+/// stop flag.
+inline RunResult quiet_run(const Case& c, const std::filesystem::path& directory,
+                           const std::string& restart = "",
+                           const volatile std::sig_atomic_t* stop = nullptr) {
+  RunOptions options;
+  options.output_directory = directory.string();
+  options.quiet = true;
+  options.restart_path = restart;
+  options.stop_requested = stop;
+  std::ostringstream log;
+  return run_case(c, options, log);
+}
+
+}  // namespace bondem::testing
