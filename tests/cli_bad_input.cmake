@@ -1,5 +1,6 @@
 # Runs the bondem executable on bad input: each call must exit with status 2, print one line
 # naming the problem, and leave no output file behind.
+include(${CMAKE_CURRENT_LIST_DIR}/cli_common.cmake)
 file(REMOVE_RECURSE ${WORK})
 file(MAKE_DIRECTORY ${WORK})
 file(READ ${CASES}/paper_5_1.yaml valid)
@@ -14,23 +15,6 @@ laser:
   path:
     - {from: [0.0, 0.0], to: [0.002, 0.0], speed: 0.5}
 ")
-
-function(expect_bad_input expected_text)
-  execute_process(COMMAND ${BONDEM} ${ARGN} RESULT_VARIABLE status ERROR_VARIABLE err
-                  OUTPUT_VARIABLE out)
-  if(NOT status EQUAL 2)
-    message(FATAL_ERROR "expected exit 2 from '${ARGN}', got ${status}: ${err}")
-  endif()
-  string(FIND "${err}" "${expected_text}" found)
-  if(found EQUAL -1)
-    message(FATAL_ERROR "'${ARGN}': stderr lacks '${expected_text}': ${err}")
-  endif()
-  string(STRIP "${err}" stripped)
-  string(FIND "${stripped}" "\n" newline)
-  if(NOT newline EQUAL -1)
-    message(FATAL_ERROR "'${ARGN}': expected a one-line reason, got: ${err}")
-  endif()
-endfunction()
 
 expect_bad_input("typo.yaml:17:3: 'bond.damping_ratoi': unknown key" info ${WORK}/typo.yaml)
 expect_bad_input("cannot open" info ${WORK}/missing.yaml)

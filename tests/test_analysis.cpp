@@ -1,0 +1,2 @@
+// Bed analysis: exact sphere-box volumes, empty or too-small regions, clusters.
+#include <gtest/gtest.h>
