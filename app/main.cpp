@@ -10,6 +10,7 @@
 #include <optional>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "default_case.hpp"
@@ -18,6 +19,7 @@
 #include "io/run.hpp"
 #include "solver/calculator.hpp"
 #include "solver/collision.hpp"
+#include "solver/particles.hpp"
 #include "solver/stepper.hpp"
 
 namespace {
@@ -256,18 +258,52 @@ struct RunCommand {
   bool quiet = false;
 };
 
+/// Most OpenMP threads a run accepts: 4 x the hardware threads. More cannot run faster (they only
+/// take turns on the cores), and far beyond it team creation fails inside the OpenMP runtime.
+int thread_limit() {
+  const int hardware =
+      std::max(static_cast<int>(std::thread::hardware_concurrency()), omp_get_num_procs());
+  return 4 * std::max(hardware, 1);
+}
+
+/// Set the OpenMP team size from --threads, or check the one OMP_NUM_THREADS gave.
+void set_threads(const std::optional<int>& requested) {
+  const int limit = thread_limit();
+  const std::string limit_text =
+      std::to_string(limit) + " (4 x the " + std::to_string(limit / 4) + " hardware threads)";
+  if (requested) {
+    if (*requested < 1) throw UsageError("--threads must be at least 1");
+    if (*requested > limit) {
+      throw UsageError("--threads " + std::to_string(*requested) + " exceeds the limit of " +
+                       limit_text);
+    }
+    omp_set_num_threads(*requested);
+  } else if (omp_get_max_threads() > limit) {
+    throw UsageError("OMP_NUM_THREADS asks for " + std::to_string(omp_get_max_threads()) +
+                     " threads, above the limit of " + limit_text + "; lower it or pass --threads");
+  }
+}
+
+/// Threads the run's loops actually use: below kMinParallelParticles particles they run serially.
+int threads_in_use(std::size_t particles) {
+  return particles >= bondem::kMinParallelParticles ? omp_get_max_threads() : 1;
+}
+
 int run_run(const RunCommand& o) {
+  set_threads(o.threads);
   const Case c = o.case_path.empty() ? bondem::parse_case(bondem::kDefaultCase,
                                                           "<built-in packing case>", o.overrides)
                                      : bondem::load_case(o.case_path, o.overrides);
-  if (o.threads) {
-    if (*o.threads < 1) throw UsageError("--threads must be at least 1");
-    omp_set_num_threads(*o.threads);
-  }
   if (!o.quiet) {
+    const int threads = threads_in_use(c.particles.size());
     std::cerr << "bondem run: " << (o.case_path.empty() ? "built-in packing case" : o.case_path)
-              << ", " << c.particles.size() << " particles, " << omp_get_max_threads()
-              << " thread(s)\n";
+              << ", " << c.particles.size() << " particles, " << threads
+              << (threads == 1 ? " thread" : " threads");
+    if (threads < omp_get_max_threads()) {
+      std::cerr << " (below " << bondem::kMinParallelParticles
+                << " particles the loops run serially; " << omp_get_max_threads() << " available)";
+    }
+    std::cerr << "\n";
   }
   bondem::RunOptions options;
   options.output_directory = o.output;
@@ -282,7 +318,8 @@ int run_run(const RunCommand& o) {
   std::cout << "output_directory = " << directory << "\n"
             << "particles = " << r.particles << "\n"
             << "steps = " << r.steps << "\n"
-            << "threads = " << r.threads << "\n"
+            << "threads = " << (r.particles >= bondem::kMinParallelParticles ? r.threads : 1)
+            << "\n"
             << "wall_time = " << r.wall_seconds << " s\n"
             << "particle_steps_per_second = " << r.particle_steps_per_second << "\n"
             << "neighbor_builds = " << r.neighbor_builds << "\n"
@@ -338,7 +375,9 @@ int main(int argc, char** argv) {
   std::optional<double> info_velocity;
   auto* info = app.add_subcommand("info", "Bond calculator: derived quantities per material pair");
   info->add_option("case", info_case, "Case file (YAML)")->required();
-  info->add_option("--set", info_overrides, "Override a scalar: KEY=VALUE (dotted key)");
+  // One KEY=VALUE per --set: a --set before the case file must not swallow it.
+  info->add_option("--set", info_overrides, "Override a scalar: KEY=VALUE (dotted key)")
+      ->allow_extra_args(false);
   info->add_option("--velocity", info_velocity, "Reference impact speed [m/s]");
 
   CollideOptions collide;
@@ -347,7 +386,8 @@ int main(int argc, char** argv) {
   collide_cmd->add_option("case", collide.case_path, "Case file (YAML) with two particles")
       ->required();
   collide_cmd->add_option("--velocity", collide.velocity, "Relative impact speed V [m/s]");
-  collide_cmd->add_option("--set", collide.overrides, "Override a scalar: KEY=VALUE (dotted key)");
+  collide_cmd->add_option("--set", collide.overrides, "Override a scalar: KEY=VALUE (dotted key)")
+      ->allow_extra_args(false);
   collide_cmd->add_flag("--json", collide.json, "Print one JSON object");
   collide_cmd->add_option("--trace", collide.trace_path, "Write the per-step history to FILE.csv");
   collide_cmd->add_option("--sweep", collide.sweep, "Impact speeds V0:V1:N (needs --out)");
@@ -361,7 +401,8 @@ int main(int argc, char** argv) {
   run_cmd->add_option("case", run.case_path, "Case file (YAML)");
   run_cmd->add_option("--threads", run.threads, "OpenMP threads (default: OMP_NUM_THREADS or all)");
   run_cmd->add_option("--output", run.output, "Output directory (default: output.directory)");
-  run_cmd->add_option("--set", run.overrides, "Override a scalar: KEY=VALUE (dotted key)");
+  run_cmd->add_option("--set", run.overrides, "Override a scalar: KEY=VALUE (dotted key)")
+      ->allow_extra_args(false);
   run_cmd->add_flag("--quiet", run.quiet, "No progress lines");
   run_cmd->add_option("--restart", run.restart, "Continue from a checkpoint file");
   run_cmd->add_flag("--unsafe-time-step", run.unsafe_time_step,
@@ -374,7 +415,10 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForAllHelp& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    std::cerr << "bondem: error: " << e.what() << " (see bondem --help)\n";
+    // One line, like every other input error.
+    std::string message = e.what();
+    std::replace(message.begin(), message.end(), '\n', ' ');
+    std::cerr << "bondem: error: " << message << " (see bondem --help)\n";
     return kBadInput;
   }
 
