@@ -289,6 +289,15 @@ int threads_in_use(std::size_t particles) {
   return particles >= bondem::kMinParallelParticles ? omp_get_max_threads() : 1;
 }
 
+/// A bed measure as printed: its value, or "n/a (why)" when the region is too small to mean
+/// anything.
+std::string measured(const std::optional<double>& value, const bondem::PackingReport& report) {
+  if (!value) return "n/a (" + report.unmeasured_reason + ")";
+  std::ostringstream text;
+  text << *value;
+  return text.str();
+}
+
 int run_run(const RunCommand& o) {
   set_threads(o.threads);
   const Case c = o.case_path.empty() ? bondem::parse_case(bondem::kDefaultCase,
@@ -330,15 +339,15 @@ int run_run(const RunCommand& o) {
             << "bed_region = [" << r.packing_region.min.transpose() << "] .. ["
             << r.packing_region.max.transpose() << "] m\n"
             << "bed_particles = " << r.packing.particles << "\n"
-            << "bed_solid_fraction = " << r.packing.solid_fraction << "\n"
-            << "mean_coordination = " << r.packing.mean_coordination << "\n"
+            << "bed_solid_fraction = " << measured(r.packing.solid_fraction, r.packing) << "\n"
+            << "mean_coordination = " << measured(r.packing.mean_coordination, r.packing) << "\n"
             << "clusters = " << r.clusters << "\n"
+            << "unbonded_particles = " << r.unbonded << "\n"
             << "largest_cluster = " << r.largest_cluster << "\n"
             << "primary_d10_d50_d90 = " << r.primary_sizes.d10 << " " << r.primary_sizes.d50 << " "
             << r.primary_sizes.d90 << " m\n";
-  if (r.cluster_sizes.count > 0) {
-    std::cout << "agglomerates = " << r.cluster_sizes.count << "\n"
-              << "agglomerate_d10_d50_d90 = " << r.cluster_sizes.d10 << " " << r.cluster_sizes.d50
+  if (r.clusters > 0) {
+    std::cout << "cluster_d10_d50_d90 = " << r.cluster_sizes.d10 << " " << r.cluster_sizes.d50
               << " " << r.cluster_sizes.d90 << " m\n";
   }
   std::cout << "bonds_formed = " << r.bonds_formed << "\n"

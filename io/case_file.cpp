@@ -5,9 +5,11 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <sstream>
 
+#include "solver/analysis.hpp"
 #include "solver/insertion.hpp"
 
 namespace bondem {
@@ -847,8 +849,32 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
   if (const YAML::Node analysis = root["analysis"]) {
     reader.expect_map(analysis, "analysis");
     reader.check_keys(analysis, "analysis", {"region", "layer"});
+    // Settings that could only fail after the last step are checked here, before step 0.
+    static constexpr const char* kAxis[3] = {"x", "y", "z"};
+    double radius_sum = 0.0;
+    double radius_min = std::numeric_limits<double>::infinity();
+    for (const ParticleSpec& p : c.particles) {
+      radius_sum += p.radius;
+      radius_min = std::min(radius_min, p.radius);
+    }
     if (const YAML::Node region = analysis["region"]) {
       c.analysis_region = read_box(reader, region, "analysis.region");
+      const Box& box = *c.analysis_region;
+      for (int a = 0; a < 3; ++a) {
+        if (c.domain && (box.max[a] <= c.domain->min[a] || box.min[a] >= c.domain->max[a])) {
+          reader.fail(region, "analysis.region",
+                      std::string("lies outside the domain along ") + kAxis[a]);
+        }
+        const double mean_diameter =
+            c.particles.empty() ? 0.0 : 2.0 * radius_sum / static_cast<double>(c.particles.size());
+        if (box.max[a] - box.min[a] < kMinRegionDiameters * mean_diameter) {
+          std::ostringstream what;
+          what << "spans " << (box.max[a] - box.min[a]) / mean_diameter
+               << " mean particle diameters along " << kAxis[a]
+               << "; a solid fraction needs at least " << kMinRegionDiameters;
+          reader.fail(region, "analysis.region", what.str());
+        }
+      }
     }
     if (const YAML::Node layer = analysis["layer"]) {
       const std::string path = "analysis.layer";
@@ -872,6 +898,30 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
       }
       if (const YAML::Node spacing = layer["grid_spacing"]) {
         r.grid_spacing = reader.positive(spacing, path + ".grid_spacing");
+      }
+      if (c.domain) {
+        const double layer_min[3] = {r.x_min, r.y_min, r.substrate_z};
+        const double layer_max[3] = {r.x_max, r.y_max, r.substrate_z + r.layer_height};
+        const char* bound[3] = {"x_min", "y_min", "substrate_z"};
+        for (int a = 0; a < 3; ++a) {
+          if (layer_max[a] <= c.domain->min[a] || layer_min[a] >= c.domain->max[a]) {
+            reader.fail(layer[bound[a]], path + "." + bound[a],
+                        std::string("the layer lies outside the domain along ") + kAxis[a]);
+          }
+        }
+      }
+      // The surface grid: its spacing, or by default a quarter of the smallest radius (a bound:
+      // the run takes the smallest among the particles at the surface).
+      const double spacing = r.grid_spacing > 0.0 ? r.grid_spacing : 0.25 * radius_min;
+      const double columns = layer_grid_columns(r, spacing);
+      if (columns > kMaxLayerColumns) {
+        std::ostringstream what;
+        what << "the surface grid would have " << columns << " columns (spacing " << spacing
+             << " m), above " << kMaxLayerColumns;
+        if (r.grid_spacing > 0.0) {
+          reader.fail(layer["grid_spacing"], path + ".grid_spacing", what.str());
+        }
+        reader.fail(layer, path, what.str() + "; set a coarser grid_spacing");
       }
       c.layer = r;
     }

@@ -368,9 +368,12 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
       description.analysis_region
           ? *description.analysis_region
           : bed_region(scene.particles, Box{scene.domain.min, scene.domain.max}, 4.0 * max_radius);
-  result.packing = analyse_packing(scene.particles, stepper.neighbors(), result.packing_region);
+  result.packing =
+      analyse_packing(scene.particles, stepper.neighbors(), result.packing_region, scene.domain);
 
-  // Agglomerates: bonded clusters, and their size distribution against the primary particles'.
+  // Clusters: bonded agglomerates of two or more particles (the rows of clusters.csv, numbered
+  // 0..K-1), and their size distribution against the primary particles'. Particles with no bond
+  // are counted apart, as unbonded.
   const Particles& p = scene.particles;
   const NeighborList& list = stepper.neighbors();
   std::vector<std::pair<std::uint32_t, std::uint32_t>> bonded;
@@ -387,14 +390,17 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
   AtomicFile cluster_file((directory / "clusters.csv").string());
   cluster_file.stream() << "cluster,particles,volume_equivalent_diameter\n";
   for (std::size_t k = 0; k < clusters.sizes.size(); ++k) {
+    if (clusters.sizes[k] < 2) {
+      ++result.unbonded;
+      continue;
+    }
     result.largest_cluster = std::max(result.largest_cluster, clusters.sizes[k]);
-    if (clusters.sizes[k] < 2) continue;
-    agglomerates.push_back(clusters.volume_equivalent_diameters[k]);
-    cluster_file.stream() << k << ',' << clusters.sizes[k] << ','
+    cluster_file.stream() << agglomerates.size() << ',' << clusters.sizes[k] << ','
                           << exact(clusters.volume_equivalent_diameters[k]) << '\n';
+    agglomerates.push_back(clusters.volume_equivalent_diameters[k]);
   }
   cluster_file.commit();
-  result.clusters = clusters.sizes.size();
+  result.clusters = agglomerates.size();
   result.primary_sizes = size_quantiles(primary);
   result.cluster_sizes = size_quantiles(agglomerates);
 

@@ -55,8 +55,9 @@ struct RunResult {
   PackingReport packing;    ///< bed solid fraction and coordination at the end
   Box packing_region;
   std::optional<LayerMetrics> layer;  ///< spread layer, when the case asks for it
-  std::size_t clusters = 0;           ///< bonded clusters (singletons included)
-  std::size_t largest_cluster = 0;    ///< particles in the largest bonded cluster
+  std::size_t clusters = 0;           ///< bonded agglomerates of 2 or more (clusters.csv rows)
+  std::size_t largest_cluster = 0;    ///< particles in the largest cluster (0 if none)
+  std::size_t unbonded = 0;           ///< particles with no bond (in no cluster)
   SizeQuantiles primary_sizes;        ///< particle diameters
   SizeQuantiles cluster_sizes;        ///< volume-equivalent diameters of clusters of 2 or more
   std::int64_t bonds_formed = 0;      ///< over the whole run (restarts included)
@@ -69,7 +70,8 @@ struct RunResult {
 /// `final_state.csv` (one row per particle sorted by id: id, x, y, z, vx, vy, vz, radius, 17
 /// significant digits) and `checkpoint.bin` (at output.checkpoint_interval and at the end).
 /// With analysis.layer, also `layer.csv` (solid fraction per bin along x) and, always,
-/// `clusters.csv` (bonded clusters: size and volume-equivalent diameter). Progress goes to @p log.
+/// `clusters.csv` (bonded agglomerates of two or more particles: size and volume-equivalent
+/// diameter). Progress goes to @p log.
 /// Throws CaseError when the time step exceeds the recommended one or a restart checkpoint does not
 /// fit, RunInterrupted when stopped on request, BlowUpError (after writing `last_good_state.csv`)
 /// when the physics blows up. Every file is written atomically.

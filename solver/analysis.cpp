@@ -1,11 +1,77 @@
 #include "solver/analysis.hpp"
 
 #include <algorithm>
-#include <numbers>
+#include <cmath>
+#include <iomanip>
+#include <numeric>
+#include <sstream>
+#include <vector>
+
+#include "solver/layer_metrics.hpp"
 
 namespace bondem {
 
-PackingReport analyse_packing(const Particles& p, const NeighborList& list, const Box& region) {
+namespace {
+
+/// Why @p region is too small to measure, or "" if it is not.
+std::string region_too_small(const Particles& p, const Box& region, std::size_t centred) {
+  static constexpr const char* kAxis[3] = {"x", "y", "z"};
+  std::ostringstream reason;
+  for (int a = 0; a < 3; ++a) {
+    if (!(region.max[a] > region.min[a]) || !std::isfinite(region.max[a] - region.min[a])) {
+      reason << "the region is empty along " << kAxis[a] << ", from " << region.min[a] << " to "
+             << region.max[a] << " m";
+      return reason.str();
+    }
+  }
+  if (p.size() == 0) return "no particles";
+  const double mean_diameter =
+      2.0 * std::accumulate(p.radius.begin(), p.radius.end(), 0.0) / static_cast<double>(p.size());
+  for (int a = 0; a < 3; ++a) {
+    const double diameters = (region.max[a] - region.min[a]) / mean_diameter;
+    if (diameters < kMinRegionDiameters) {
+      reason << "the region spans " << std::setprecision(3) << diameters
+             << " mean particle diameters along " << kAxis[a] << ", fewer than "
+             << kMinRegionDiameters;
+      return reason.str();
+    }
+  }
+  if (centred < kMinRegionParticles) {
+    reason << "only " << centred << " particle centres in the region, fewer than "
+           << kMinRegionParticles;
+    return reason.str();
+  }
+  return "";
+}
+
+/// Volume of the sphere at @p centre inside @p region, its periodic images included.
+double clipped_volume(const Eigen::Vector3d& centre, double r, const Box& region,
+                      const Domain& domain) {
+  const Eigen::Vector3d length = domain.length();
+  double volume = 0.0;
+  for (int sx = -1; sx <= 1; ++sx) {
+    for (int sy = -1; sy <= 1; ++sy) {
+      for (int sz = -1; sz <= 1; ++sz) {
+        const int shift[3] = {sx, sy, sz};
+        bool skip = false;
+        Eigen::Vector3d c = centre;
+        for (int a = 0; a < 3; ++a) {
+          if (shift[a] != 0 && !domain.periodic[static_cast<std::size_t>(a)]) skip = true;
+          c[a] += shift[a] * length[a];
+          // The box test first: most spheres are far from the region or its images.
+          if (c[a] + r <= region.min[a] || c[a] - r >= region.max[a]) skip = true;
+        }
+        if (!skip) volume += sphere_box_volume(c.x(), c.y(), c.z(), r, region);
+      }
+    }
+  }
+  return volume;
+}
+
+}  // namespace
+
+PackingReport analyse_packing(const Particles& p, const NeighborList& list, const Box& region,
+                              const Domain& domain) {
   const std::size_t n = p.size();
   std::vector<int> contacts(n, 0);
   for (std::size_t i = 0; i < n; ++i) {
@@ -20,18 +86,27 @@ PackingReport analyse_packing(const Particles& p, const NeighborList& list, cons
       }
     }
   }
+  // Sum in id order, so that the result does not depend on how the particles are stored.
+  std::vector<std::size_t> by_id(n);
+  std::iota(by_id.begin(), by_id.end(), std::size_t{0});
+  std::sort(by_id.begin(), by_id.end(),
+            [&](std::size_t a, std::size_t b) { return p.id[a] < p.id[b]; });
+
   PackingReport report;
-  double volume = 0.0;
   double coordination = 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
+  for (const std::size_t i : by_id) {
     if (!region.contains(Eigen::Vector3d(p.x[i], p.y[i], p.z[i]))) continue;
     ++report.particles;
-    volume += 4.0 / 3.0 * std::numbers::pi * p.radius[i] * p.radius[i] * p.radius[i];
     coordination += contacts[i];
   }
+  report.unmeasured_reason = region_too_small(p, region, report.particles);
+  if (!report.unmeasured_reason.empty()) return report;
+  double volume = 0.0;
+  for (const std::size_t i : by_id) {
+    volume += clipped_volume(Eigen::Vector3d(p.x[i], p.y[i], p.z[i]), p.radius[i], region, domain);
+  }
   report.solid_fraction = volume / region.volume();
-  report.mean_coordination =
-      report.particles > 0 ? coordination / static_cast<double>(report.particles) : 0.0;
+  report.mean_coordination = coordination / static_cast<double>(report.particles);
   return report;
 }
 

@@ -2,26 +2,54 @@
 /// @file analysis.hpp
 /// Packing measures of a particle state: solid fraction and coordination number in a region.
 
+#include <cstddef>
+#include <optional>
+#include <string>
+
 #include "geometry/box.hpp"
+#include "geometry/domain.hpp"
 #include "solver/neighbor_list.hpp"
 #include "solver/particles.hpp"
 
 namespace bondem {
 
-/// Packing measures of the particles whose centres lie in a region.
+// Minimum region: in random cubic windows of the settled built-in bed (2 000 spheres), the solid
+// fraction with exact clipping scatters (standard deviation) by 0.059 at a side of 1 mean diameter
+// (1 centre inside on average), 0.020 at 2 (9 centres), 0.008 at 3 (31 centres), 0.004 at 4 (73
+// centres). Below 0.01 is what a bed's solid fraction is read for (random loose ~0.60 against
+// random close ~0.64 packing), so a region must span 3 diameters on every axis and hold 30 centres.
+
+/// A measured region must span this many mean particle diameters on every axis.
+inline constexpr double kMinRegionDiameters = 3.0;
+
+/// A measured region must hold this many particle centres.
+inline constexpr std::size_t kMinRegionParticles = 30;
+
+/// Packing measures in a region.
 struct PackingReport {
-  std::size_t particles = 0;       ///< particles counted
-  double solid_fraction = 0.0;     ///< their sphere volume / region volume
-  double mean_coordination = 0.0;  ///< mean number of particle contacts per counted particle
+  std::size_t particles = 0;  ///< particles whose centre lies in the region
+  /// Solid volume inside the region (every sphere clipped exactly to it) / region volume; absent
+  /// when the region is too small to mean anything (see unmeasured_reason).
+  std::optional<double> solid_fraction;
+  /// Mean number of particle contacts of the particles centred in the region; absent with
+  /// solid_fraction.
+  std::optional<double> mean_coordination;
+  /// Why the measures are absent ("" when they are present), e.g. "the region is empty along z".
+  std::string unmeasured_reason;
 };
 
-/// Solid fraction by centres (the volume of spheres centred inside over the region volume: an
-/// unbiased estimate for a homogeneous packing when the region spans many diameters) and the mean
-/// coordination number of those particles, from the overlaps in @p list.
-PackingReport analyse_packing(const Particles& p, const NeighborList& list, const Box& region);
+/// Solid fraction of @p region: the volume of every sphere inside it, clipped exactly by
+/// sphere_box_volume (periodic images across @p domain's periodic axes included), over the region
+/// volume; and the mean coordination number of the particles centred in it, from the overlaps in
+/// @p list. Both are left out, with the reason, when the region is empty or inverted, spans fewer
+/// than kMinRegionDiameters mean diameters on an axis, or holds fewer than kMinRegionParticles
+/// centres. Sums run in id order: the result does not depend on particle order.
+PackingReport analyse_packing(const Particles& p, const NeighborList& list, const Box& region,
+                              const Domain& domain);
 
 /// Bed region: @p box shrunk by @p margin on every side, its top lowered to @p margin below the
-/// highest particle top, so that wall and free-surface layers are excluded.
+/// highest particle top, so that wall and free-surface layers are excluded. It comes out empty
+/// (max below min) when the bed is thinner than the margins; analyse_packing then says so.
 Box bed_region(const Particles& p, const Box& box, double margin);
 
 }  // namespace bondem

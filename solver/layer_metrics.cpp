@@ -278,9 +278,18 @@ std::size_t interval_of(double v, double origin, double width, std::size_t count
 /// Columns along a side of length @p length for a target spacing.
 std::size_t column_count(double length, double spacing) {
   const double n = std::round(length / spacing);
-  if (!(n <= 1e9)) throw std::invalid_argument("measure_layer: surface grid too fine");
+  if (!(n <= kMaxLayerColumns)) throw std::invalid_argument("measure_layer: surface grid too fine");
   return std::max<std::size_t>(1, static_cast<std::size_t>(n));
 }
+
+}  // namespace
+
+double layer_grid_columns(const LayerRegion& region, double spacing) {
+  const auto side = [&](double length) { return std::max(1.0, std::round(length / spacing)); };
+  return side(region.x_max - region.x_min) * side(region.y_max - region.y_min);
+}
+
+namespace {
 
 /// Top-surface statistics over the column grid (fills the surface fields of @p m).
 void measure_surface(const Particles& p, const LayerRegion& region,
@@ -311,7 +320,7 @@ void measure_surface(const Particles& p, const LayerRegion& region,
   const double ly = region.y_max - region.y_min;
   const std::size_t nx = column_count(lx, spacing);
   const std::size_t ny = column_count(ly, spacing);
-  if (static_cast<double>(nx) * static_cast<double>(ny) > 1e9) {
+  if (static_cast<double>(nx) * static_cast<double>(ny) > kMaxLayerColumns) {
     throw std::invalid_argument("measure_layer: surface grid too fine");
   }
   m.columns = nx * ny;

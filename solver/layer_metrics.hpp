@@ -78,6 +78,13 @@ struct LayerMetrics {
   std::size_t covered_columns = 0;  ///< columns with a particle above them
 };
 
+/// Most columns the surface grid of measure_layer may have (beyond, it refuses the region).
+inline constexpr double kMaxLayerColumns = 1e9;
+
+/// Columns of the surface grid over @p region's footprint at column spacing @p spacing:
+/// round(L / spacing), at least 1, along each side. A double, so that a tiny spacing cannot wrap.
+double layer_grid_columns(const LayerRegion& region, double spacing);
+
 /// Measure the layer in @p region.
 ///
 /// Solid fraction: every sphere overlapping a box contributes its volume clipped to the box (see

@@ -65,6 +65,29 @@ expect_bad_input("--set: 1 required" run ${CASES}/paper_5_1.yaml --quiet --set)
 expect_bad_input("not expected: extra.yaml" run ${CASES}/paper_5_1.yaml extra.yaml --quiet)
 expect_bad_input("--set time.end=abc" run --set time.end=abc ${CASES}/paper_5_1.yaml --quiet
                  --output ${WORK}/run_set_first)
+
+# Analysis settings that used to fail only after the last step are refused before step 0.
+expect_bad_input("'analysis.layer.grid_spacing': the surface grid would have" run
+                 ${CASES}/powder_spreading_ci.yaml --quiet --set analysis.layer.grid_spacing=1e-12
+                 --output ${WORK}/run_grid)
+expect_bad_input("'analysis.layer.substrate_z': the layer lies outside the domain along z" run
+                 ${CASES}/powder_spreading_ci.yaml --quiet --set analysis.layer.substrate_z=5
+                 --output ${WORK}/run_layer_outside)
+file(READ ${CASES}/powder_bed_packing_ci.yaml packing)
+file(WRITE ${WORK}/region.yaml "${packing}analysis:
+  region: {min: [0.003, 0.003, 0.003], max: [0.009, 0.009, 0.009]}
+")
+execute_process(COMMAND ${BONDEM} info ${WORK}/region.yaml RESULT_VARIABLE region_status
+                OUTPUT_QUIET ERROR_VARIABLE region_err)
+if(NOT region_status EQUAL 0)
+  message(FATAL_ERROR "a valid analysis.region was refused: ${region_err}")
+endif()
+expect_bad_input("'analysis.region': lies outside the domain along x" run ${WORK}/region.yaml
+                 --quiet --set analysis.region.min.0=0.02 --set analysis.region.max.0=0.03
+                 --output ${WORK}/run_region_outside)
+expect_bad_input("mean particle diameters along z; a solid fraction needs at least 3" run
+                 ${WORK}/region.yaml --quiet --set analysis.region.max.2=0.004
+                 --output ${WORK}/run_region_thin)
 file(GLOB run_leftovers ${WORK}/run_*)
 if(run_leftovers)
   message(FATAL_ERROR "refused runs left output behind: ${run_leftovers}")
@@ -106,3 +129,26 @@ expect_success(run ${CASES}/powder_bed_packing_ci.yaml --threads 2 --set insert.
                --set time.end=3e-6 --output ${WORK}/many)
 expect_text("${err}" "2100 particles, 2 threads\n" "parallel banner")
 expect_text("${out}" "threads = 2\n" "parallel threads line")
+
+# A bed region with no volume (a case without a domain: the margins invert the default region)
+# is reported as such, not as a solid fraction of -0; `name = value` lines stay parseable.
+expect_success(run ${CASES}/paper_5_1.yaml --quiet --set time.end=1e-6 --output ${WORK}/apart)
+expect_text("${out}" "\nbed_solid_fraction = n/a (the region is empty along z" "inverted bed")
+expect_text("${out}" "\nmean_coordination = n/a (the region is empty along z" "inverted bed")
+
+# Clusters are bonded agglomerates of two or more particles, on stdout as in clusters.csv; the
+# particles with no bond are counted apart. The pair apart: no cluster (it printed 2 clusters).
+expect_text("${out}" "\nclusters = 0\nunbonded_particles = 2\nlargest_cluster = 0\n" "pair apart")
+file(READ ${WORK}/apart/clusters.csv apart_clusters)
+if(NOT apart_clusters STREQUAL "cluster,particles,volume_equivalent_diameter\n")
+  message(FATAL_ERROR "pair apart: clusters.csv should hold only its header: ${apart_clusters}")
+endif()
+# The pair bonded: one cluster of two, row 0 of clusters.csv.
+expect_success(run ${CASES}/paper_5_1.yaml --quiet --output ${WORK}/bonded)
+expect_text("${out}" "\nclusters = 1\nunbonded_particles = 0\nlargest_cluster = 2\n" "bonded pair")
+file(STRINGS ${WORK}/bonded/clusters.csv bonded_rows)
+list(LENGTH bonded_rows bonded_row_count)
+list(GET bonded_rows 1 bonded_row)
+if(NOT bonded_row_count EQUAL 2 OR NOT bonded_row MATCHES "^0,2,")
+  message(FATAL_ERROR "bonded pair: clusters.csv should hold one cluster 0 of 2: ${bonded_rows}")
+endif()
