@@ -256,6 +256,7 @@ struct RunCommand {
   std::optional<int> threads;
   std::string output;
   bool quiet = false;
+  std::vector<std::string> command_line;  ///< argv, for the resume command
 };
 
 /// Most OpenMP threads a run accepts: 4 x the hardware threads. More cannot run faster (they only
@@ -320,6 +321,7 @@ int run_run(const RunCommand& o) {
   options.restart_path = o.restart;
   options.enforce_time_step_limit = !o.unsafe_time_step;
   options.stop_requested = &g_stop_signal;
+  options.command_line = o.command_line;
   std::signal(SIGINT, request_stop);
   std::signal(SIGTERM, request_stop);
   const bondem::RunResult r = bondem::run_case(c, options, std::cerr);
@@ -405,6 +407,7 @@ int main(int argc, char** argv) {
                           "Bisect the sticking speed between V0:V1");
 
   RunCommand run;
+  run.command_line.assign(argv, argv + argc);
   auto* run_cmd = app.add_subcommand(
       "run", "Run a case; without a case file, the built-in powder-bed packing case");
   run_cmd->add_option("case", run.case_path, "Case file (YAML)");

@@ -761,6 +761,26 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
   const YAML::Node end = reader.require(time, "time", "end");
   c.end_time = reader.positive(end, "time.end");
   if (c.end_time < c.time_step) reader.fail(end, "time.end", "is shorter than one time step");
+  // The run's step limit (kMaxRunSteps in io/run.hpp), checked in double: the count of a long
+  // end and a tiny step fits no integer. Blamed on time.step when only that was --set.
+  constexpr double kMaxSteps = 1e12;
+  if (const double steps = c.end_time / c.time_step; !(steps <= kMaxSteps)) {
+    const auto set_on_command_line = [&](const YAML::Node& node, const std::string& path) {
+      try {
+        reader.fail(node, path, "");
+      } catch (const CaseError& e) {
+        return std::string(e.what()).rfind("--set ", 0) == 0;  // how Reader::fail names a --set
+      }
+      return false;  // not reached: fail() always throws
+    };
+    const YAML::Node step = time["step"];
+    const bool blame_step =
+        set_on_command_line(step, "time.step") && !set_on_command_line(end, "time.end");
+    std::ostringstream what;
+    what << "gives " << steps << " steps (time.end " << c.end_time << " s / time.step "
+         << c.time_step << " s), more than the limit of " << kMaxSteps << " steps";
+    reader.fail(blame_step ? step : end, blame_step ? "time.step" : "time.end", what.str());
+  }
 
   if (const YAML::Node gravity = root["gravity"]) c.gravity = reader.vector3(gravity, "gravity");
 

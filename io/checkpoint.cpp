@@ -1,6 +1,7 @@
 #include "io/checkpoint.hpp"
 
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <type_traits>
@@ -66,6 +67,7 @@ class Reader {
     const auto size = get<std::uint64_t>();
     if (size != expected)
       fail("array of " + std::to_string(size) + " entries, expected " + std::to_string(expected));
+    check_room(size, sizeof(T));
     values.resize(size);
     take(values.data(), size * sizeof(T));
   }
@@ -77,6 +79,13 @@ class Reader {
     return text;
   }
   void get_raw(void* out, std::size_t size) { take(out, size); }
+  /// Refuse a count of @p count entries of @p entry_size bytes that the bytes left cannot hold:
+  /// checked before allocating, so a forged count cannot exhaust memory.
+  void check_room(std::uint64_t count, std::size_t entry_size) const {
+    if (count > (bytes_.size() - offset_) / entry_size) {
+      fail("array of " + std::to_string(count) + " entries, more than the file holds");
+    }
+  }
   bool at_end() const { return offset_ == bytes_.size(); }
   [[noreturn]] void fail(const std::string& what) const {
     throw CheckpointError(path_ + ": corrupt checkpoint: " + what);
@@ -203,9 +212,20 @@ void write_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
 }
 
 Checkpoint read_checkpoint(const std::string& path) {
+  // A directory opens as a stream on Linux and reports an absurd size: refuse it by its type.
+  std::error_code error;
+  const std::filesystem::file_status status = std::filesystem::status(path, error);
+  if (error || !std::filesystem::exists(status)) {
+    throw CheckpointError(path + ": cannot open the checkpoint (no such file)");
+  }
+  if (!std::filesystem::is_regular_file(status)) {
+    throw CheckpointError(path + ": not a checkpoint file (a directory or other special file)");
+  }
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) throw CheckpointError(path + ": cannot open the checkpoint");
-  std::string file(static_cast<std::size_t>(in.tellg()), '\0');
+  const std::streamoff length = in.tellg();
+  if (length < 0) throw CheckpointError(path + ": cannot read the checkpoint");
+  std::string file(static_cast<std::size_t>(length), '\0');
   in.seekg(0);
   in.read(file.data(), static_cast<std::streamsize>(file.size()));
   if (!in) throw CheckpointError(path + ": cannot read the checkpoint");
@@ -246,6 +266,7 @@ Checkpoint read_checkpoint(const std::string& path) {
   s.contacts.max_overlap_fraction = r.get<double>();
   s.list.builds = r.get<std::int64_t>();
   const auto n = r.get<std::uint64_t>();
+  r.check_room(n, sizeof(double));
   Particles& p = c.particles;
   r.get(p.id, n);
   r.get(p.material, n);
@@ -253,9 +274,14 @@ Checkpoint read_checkpoint(const std::string& path) {
   for (auto* field : {&s.list.x0, &s.list.y0, &s.list.z0}) r.get(*field, n);
   p.walls = r.get<std::int32_t>();
   if (p.walls < 0) r.fail("negative wall count");
-  r.get(p.wall_slip, n * static_cast<std::uint64_t>(3 * p.walls));
+  const auto slip_values_per_particle = 3 * static_cast<std::uint64_t>(p.walls);
+  if (slip_values_per_particle > 0 && n > UINT64_MAX / slip_values_per_particle) {
+    r.fail("implausible wall count");  // the product below would wrap around
+  }
+  r.get(p.wall_slip, n * slip_values_per_particle);
   const auto slip_count = r.get<std::uint64_t>();
-  if (slip_count > bytes.size()) r.fail("implausible number of tangential springs");
+  constexpr std::size_t kSlipBytes = 2 * sizeof(std::int64_t) + 3 * sizeof(double) + 1;
+  r.check_room(slip_count, kSlipBytes);
   s.slips.resize(slip_count);
   for (SlipRecord& slip : s.slips) {
     slip.first_id = r.get<std::int64_t>();
@@ -266,7 +292,7 @@ Checkpoint read_checkpoint(const std::string& path) {
     slip.bonded = r.get<std::uint8_t>();
   }
   const auto body_values = r.get<std::uint64_t>();
-  if (body_values > bytes.size()) r.fail("implausible number of body values");
+  r.check_room(body_values, sizeof(double));
   s.bodies.resize(body_values);
   r.get_raw(s.bodies.data(), body_values * sizeof(double));
   s.bonds_formed = r.get<std::int64_t>();

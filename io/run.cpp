@@ -4,15 +4,22 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <numeric>
 #include <optional>
 #include <ostream>
+#include <regex>
 #include <sstream>
+#include <string_view>
 
 #include "io/atomic_file.hpp"
 #include "io/case_file.hpp"
@@ -30,6 +37,26 @@ std::string exact(double value) {
   char buffer[32];
   std::snprintf(buffer, sizeof buffer, "%.17g", value);
   return buffer;
+}
+
+/// A value for a message: six significant digits, as the rest of the messages print them.
+std::string readable(double value) {
+  std::ostringstream text;
+  text << value;
+  return text.str();
+}
+
+/// @p history (a checkpoint's history.csv text) without its last row when that row is the end
+/// row of a finished run, at the checkpoint's @p step and @p time but off the grid of one row
+/// every @p every steps: a run straight to a later end has no row there.
+std::string history_without_end_row(const std::string& history, std::int64_t step, double time,
+                                    std::int64_t every) {
+  if (step % every == 0 || history.size() < 2) return history;
+  const std::size_t last_row = history.rfind('\n', history.size() - 2);
+  if (last_row == std::string::npos) return history;  // the header only
+  // Rows start with the time in 17 significant digits, which reads back as the same double.
+  const double row_time = std::strtod(history.c_str() + last_row + 1, nullptr);
+  return row_time == time ? history.substr(0, last_row + 1) : history;
 }
 
 /// Columns of history.csv; each wall and tool adds the force the particles exert on it.
@@ -98,6 +125,149 @@ void keep_last_good(const Particles& from, Particles& to) {
   to.radius = from.radius;
 }
 
+/// @p argument as one shell word: unchanged when it holds only safe characters, else in single
+/// quotes (a quote inside written as '\'').
+std::string shell_quoted(const std::string& argument) {
+  const bool safe = !argument.empty() && std::all_of(argument.begin(), argument.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) != 0 ||
+           std::string_view("_-./=:,+@%").find(c) != std::string_view::npos;
+  });
+  if (safe) return argument;
+  std::string quoted = "'";
+  for (const char c : argument) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return quoted + "'";
+}
+
+/// The command that continues an interrupted run: the one that started it, with its --restart
+/// (if any) replaced by @p checkpoint_path.
+std::string resume_command(const RunOptions& options, const Case& description,
+                           const std::filesystem::path& directory,
+                           const std::string& checkpoint_path) {
+  if (options.command_line.empty()) {
+    // Called as a library: only what the run knows. A built-in case has no file to name.
+    const std::string case_argument =
+        description.source.rfind('<', 0) == 0 ? "" : shell_quoted(description.source) + " ";
+    return "bondem run " + case_argument + "--output " + shell_quoted(directory.string()) +
+           " --restart " + shell_quoted(checkpoint_path) +
+           " (and the options of the interrupted run, if any)";
+  }
+  std::string command;
+  const std::vector<std::string>& words = options.command_line;
+  for (std::size_t k = 0; k < words.size(); ++k) {
+    if (words[k] == "--restart") {
+      ++k;  // and its value
+      continue;
+    }
+    if (words[k].rfind("--restart=", 0) == 0) continue;
+    command += (command.empty() ? "" : " ") + shell_quoted(words[k]);
+  }
+  return command + " --restart " + shell_quoted(checkpoint_path);
+}
+
+/// Create @p directory and write and remove a probe file in it, so that an output directory that
+/// cannot be written is refused before step 0 rather than found at the first write. @p key names
+/// the setting that chose the directory. Throws CaseError.
+void probe_output_directory(const std::filesystem::path& directory, const std::string& key) {
+  const auto refuse = [&](const std::string& why) {
+    throw CaseError(key + ": cannot write the output directory " + directory.string() + " (" + why +
+                    ")");
+  };
+  std::error_code error;
+  std::filesystem::create_directories(directory, error);
+  if (error) refuse(error.message());
+  if (!std::filesystem::is_directory(directory, error)) refuse("not a directory");
+  const std::filesystem::path probe =
+      directory / (".bondem_probe.tmp." + std::to_string(::getpid()));
+  bool written = false;
+  {
+    std::ofstream out(probe, std::ios::binary | std::ios::trunc);
+    out << "bondem\n";
+    out.flush();
+    written = static_cast<bool>(out);
+  }
+  std::filesystem::remove(probe, error);
+  if (!written) refuse("a test file cannot be written");
+  if (error) refuse("a test file cannot be removed: " + error.message());
+}
+
+/// True for the names of the files bondem's runs write (outputs, VTK series), and only those.
+bool is_run_output(const std::string& name) {
+  static const std::regex output(
+      "(history|final_state|last_good_state|clusters|layer)\\.csv|checkpoint\\.bin|"
+      "(particles|contacts|walls|tools)(\\.pvd|_[0-9]{6,}\\.vtp)");
+  return std::regex_match(name, output);
+}
+
+/// True for a VTK series file (frames and collections).
+bool is_vtk_series(const std::string& name) {
+  static const std::regex series("(particles|contacts|walls|tools)(\\.pvd|_[0-9]{6,}\\.vtp)");
+  return std::regex_match(name, series);
+}
+
+/// A run owns its output directory: remove what an earlier run left in it, so that every file
+/// there belongs to this run. Removed: temporaries `<output>.tmp.<pid>` of processes that no
+/// longer run (a SIGKILL during a write), and every output bondem writes (is_run_output()),
+/// except @p keep (the checkpoint a restart reads) and, when @p keep_vtk_series, the VTK series
+/// (a restart trims it to the checkpoint's time itself). Files bondem does not write stay.
+void remove_stale_outputs(const std::filesystem::path& directory, const std::filesystem::path& keep,
+                          bool keep_vtk_series) {
+  namespace fs = std::filesystem;
+  std::error_code error;
+  std::vector<fs::path> stale;
+  for (const fs::directory_entry& entry : fs::directory_iterator(directory, error)) {
+    if (!entry.is_regular_file(error)) continue;
+    const std::string name = entry.path().filename().string();
+    const std::size_t marker = name.rfind(".tmp.");
+    if (marker != std::string::npos) {
+      const std::string pid = name.substr(marker + 5);
+      const std::string target = name.substr(0, marker);
+      const bool digits =
+          !pid.empty() && pid.size() < 10 &&
+          std::all_of(pid.begin(), pid.end(), [](char c) { return c >= '0' && c <= '9'; });
+      if (!digits || !(is_run_output(target) || target == ".bondem_probe")) continue;
+      const auto owner = static_cast<pid_t>(std::stol(pid));
+      // A live process may be writing it (another run aimed at the same directory).
+      const bool alive = owner == ::getpid() || ::kill(owner, 0) == 0 || errno != ESRCH;
+      if (!alive) stale.push_back(entry.path());
+      continue;
+    }
+    if (!is_run_output(name)) continue;
+    if (keep_vtk_series && is_vtk_series(name)) continue;
+    std::error_code not_same;  // keep may not exist: then nothing is kept
+    if (!keep.empty() && fs::equivalent(entry.path(), keep, not_same)) continue;
+    stale.push_back(entry.path());
+  }
+  if (error) {
+    throw std::runtime_error(directory.string() +
+                             ": cannot list the output directory: " + error.message());
+  }
+  for (const fs::path& path : stale) {
+    if (!fs::remove(path, error) && error) {
+      throw std::runtime_error(path.string() +
+                               ": cannot remove an earlier run's output: " + error.message());
+    }
+  }
+}
+
+/// The files a run writes at its end: they appear together or not at all. Removes the ones
+/// listed unless kept (an exception between the first write and keep() leaves none behind).
+class OutputSet {
+ public:
+  explicit OutputSet(std::vector<std::filesystem::path> paths) : paths_(std::move(paths)) {}
+  ~OutputSet() {
+    if (kept_) return;
+    std::error_code ignored;
+    for (const std::filesystem::path& path : paths_) std::filesystem::remove(path, ignored);
+  }
+  OutputSet(const OutputSet&) = delete;
+  OutputSet& operator=(const OutputSet&) = delete;
+  void keep() { kept_ = true; }
+
+ private:
+  std::vector<std::filesystem::path> paths_;
+  bool kept_ = false;
+};
+
 }  // namespace
 
 namespace {
@@ -156,7 +326,18 @@ class VtkObserver {
  public:
   explicit VtkObserver(const std::filesystem::path& directory) : writer_(directory.string()) {}
 
-  void resume(double time) { writer_.resume(time); }
+  /// Continue the series of an interrupted run from the checkpoint at @p checkpoint_step: keep
+  /// the frames an uninterrupted run writes (every @p every steps) up to it, drop the rest (the
+  /// frame written at an interruption, frames past the checkpoint).
+  void resume(const Scene& scene, std::int64_t checkpoint_step, std::int64_t every,
+              double time_step) {
+    writer_.resume(
+        [&](double time) {
+          const std::int64_t step = std::llround(time / time_step);
+          return step <= checkpoint_step && step % every == 0;
+        },
+        scene.walls, scene.domain);
+  }
 
   void write(const Scene& scene, const Stepper& stepper) {
     const Particles& p = scene.particles;
@@ -219,11 +400,29 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
       options.output_directory.empty() ? description.output_directory : options.output_directory;
   const std::string checkpoint_path = (directory / "checkpoint.bin").string();
   const std::uint64_t fingerprint = case_fingerprint(description);
+  const bool restarting = !options.restart_path.empty();
+
+  // In double first: the ratio of a long end and a tiny step does not fit any integer.
+  const double step_ratio = description.end_time / description.time_step;
+  if (!(step_ratio <= kMaxRunSteps)) {
+    throw CaseError(description.source + ": 'time.end': " + readable(description.end_time) +
+                    " s is " + readable(step_ratio) + " steps of time.step " +
+                    readable(description.time_step) + " s, more than the limit of " +
+                    readable(kMaxRunSteps) + " steps");
+  }
+  const auto steps = static_cast<std::int64_t>(std::llround(step_ratio));
+  // An interval at least as long as the run means "at the end only" (the end is always written);
+  // the ratio stays in double until it is known to fit.
+  const auto every = [&](double interval, double fallback) {
+    const double ratio = (interval > 0.0 ? interval : fallback) / description.time_step;
+    if (!(ratio < step_ratio)) return std::numeric_limits<std::int64_t>::max();
+    return std::max<std::int64_t>(1, std::llround(ratio));
+  };
 
   Scene scene = build_scene(description);
   std::ostringstream history;
   std::optional<Stepper> stepper_storage;
-  if (options.restart_path.empty()) {
+  if (!restarting) {
     stepper_storage.emplace(scene);
     history << history_header(scene);
   } else {
@@ -239,118 +438,178 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
                       "materials, laws, time step, domain, walls or particle count differ from " +
                       description.source + ")");
     }
+    if (steps <= restored.stepper.step) {
+      throw CaseError(description.source + ": 'time.end': " + readable(description.end_time) +
+                      " s is not after the time of the checkpoint " + options.restart_path + ", " +
+                      readable(restored.stepper.time) + " s: raise time.end to continue the run");
+    }
     scene.particles = std::move(restored.particles);
     stepper_storage.emplace(scene, restored.stepper);
-    history << restored.history;
+    history << history_without_end_row(
+        restored.history, restored.stepper.step, restored.stepper.time,
+        every(description.history_interval, description.end_time / 100.0));
   }
   Stepper& stepper = *stepper_storage;
 
-  const auto steps =
-      static_cast<std::int64_t>(std::llround(description.end_time / description.time_step));
-  const auto every = [&](double interval, double fallback) {
-    return std::max<std::int64_t>(
-        1, std::llround((interval > 0.0 ? interval : fallback) / description.time_step));
-  };
   const std::int64_t history_every =
       every(description.history_interval, description.end_time / 100.0);
   const std::int64_t vtk_every = every(description.vtk_interval, 2.0 * description.end_time);
-  std::optional<VtkObserver> vtk;
-  if (description.vtk_interval > 0.0) {
-    vtk.emplace(directory);
-    if (stepper.step_count() > 0) vtk->resume(stepper.time());
-  }
   const std::int64_t checkpoint_every =
       every(description.checkpoint_interval, 2.0 * description.end_time);
 
+  // Everything is checked: make the output directory this run's (see remove_stale_outputs).
+  probe_output_directory(directory, options.output_directory.empty()
+                                        ? description.source + ": 'output.directory'"
+                                        : "--output " + options.output_directory);
+  const bool vtk_series = description.vtk_interval > 0.0;
+  remove_stale_outputs(directory, restarting ? options.restart_path : "", restarting && vtk_series);
+  std::optional<VtkObserver> vtk;
+  if (vtk_series) {
+    vtk.emplace(directory);
+    if (restarting) vtk->resume(scene, stepper.step_count(), vtk_every, description.time_step);
+  }
+  // history.csv grows row by row, flushed, so that a run can be watched (and plotted) live; a
+  // restart first rewrites it from the checkpoint. After a blow-up or an interruption it holds
+  // every row the run produced; a checkpoint.bin beside it may be older (its own history is
+  // inside it).
+  const std::string history_path = (directory / "history.csv").string();
+  std::ofstream live_history(history_path, std::ios::binary | std::ios::trunc);
+  const auto append_history = [&](const std::string& rows) {
+    live_history << rows << std::flush;
+    if (!live_history) throw std::runtime_error(history_path + ": write failed");
+  };
+  append_history(history.str());
+
+  // One row of history.csv, appended and flushed. A value that is not finite (an infinite
+  // kinetic energy while every position is still finite) is a blow-up like any other: the row
+  // is not written and BlowUpError names the column and the fastest particle.
   const auto record = [&] {
     const ContactSummary& c = stepper.contacts();
-    history << exact(stepper.time()) << ',' << exact(stepper.kinetic_energy()) << ','
-            << exact(stepper.rotational_energy()) << ',' << c.contacts << ',' << c.bonds << ','
-            << stepper.bonds_formed() << ',' << stepper.bonds_broken() << ',' << c.wall_contacts
-            << ',' << exact(c.max_overlap);
+    std::ostringstream row;
+    std::string non_finite;  // the first column that is not finite
+    const auto put = [&](const std::string& column, double value) {
+      row << ',' << exact(value);
+      if (non_finite.empty() && !std::isfinite(value)) non_finite = column + " = " + exact(value);
+    };
+    row << exact(stepper.time());
+    put("kinetic_energy", stepper.kinetic_energy());
+    put("rotational_energy", stepper.rotational_energy());
+    row << ',' << c.contacts << ',' << c.bonds << ',' << stepper.bonds_formed() << ','
+        << stepper.bonds_broken() << ',' << c.wall_contacts;
+    put("max_overlap", c.max_overlap);
     if (scene.particles.thermal()) {
       const std::vector<double>& t = scene.particles.temperature;
       double sum = 0.0;
       for (const double value : t) sum += value;  // index order: the same bytes at any thread count
-      history << ',' << exact(*std::max_element(t.begin(), t.end())) << ','
-              << exact(sum / static_cast<double>(t.size())) << ',' << exact(stepper.laser_energy());
+      put("max_temperature", *std::max_element(t.begin(), t.end()));
+      put("mean_temperature", sum / static_cast<double>(t.size()));
+      put("laser_energy", stepper.laser_energy());
     }
-    for (const Eigen::Vector3d& load : stepper.wall_forces()) {
-      history << ',' << exact(load.x()) << ',' << exact(load.y()) << ',' << exact(load.z());
+    const std::vector<Eigen::Vector3d>& loads = stepper.wall_forces();
+    for (std::size_t k = 0; k < loads.size(); ++k) {
+      const std::string name =
+          "load_" + (k < scene.walls.size() ? scene.walls[k].name
+                                            : scene.bodies[k - scene.walls.size()].name);
+      put(name + "_x", loads[k].x());
+      put(name + "_y", loads[k].y());
+      put(name + "_z", loads[k].z());
     }
-    history << '\n';
-  };
-  const auto write_history = [&] {
-    AtomicFile file((directory / "history.csv").string());
-    file.stream() << history.str();
-    file.commit();
+    row << '\n';
+    if (!non_finite.empty()) {
+      std::ostringstream message;
+      message << "step " << stepper.step_count() << " (t = " << stepper.time()
+              << " s): history value " << non_finite;
+      const Particles& p = scene.particles;
+      std::size_t fastest = 0;
+      double fastest_speed_sq = -1.0;
+      for (std::size_t i = 0; i < p.size(); ++i) {
+        const double speed_sq = p.vx[i] * p.vx[i] + p.vy[i] * p.vy[i] + p.vz[i] * p.vz[i];
+        if (speed_sq > fastest_speed_sq ||
+            (std::isnan(speed_sq) && !std::isnan(fastest_speed_sq))) {
+          fastest = i;
+          fastest_speed_sq = speed_sq;
+        }
+      }
+      if (p.size() > 0) {
+        message << "; fastest particle id " << p.id[fastest] << " at "
+                << std::sqrt(fastest_speed_sq) << " m/s";
+      }
+      throw BlowUpError(message.str());
+    }
+    history << row.str();
+    append_history(row.str());
   };
   const auto checkpoint = [&] {
     write_checkpoint(checkpoint_path,
                      {fingerprint, scene.particles, stepper.save_state(), history.str()});
   };
-  if (stepper.step_count() == 0) {
-    record();
-    if (vtk) vtk->write(scene, stepper);
-  }
 
   // The last state known to be sound, for a blow-up report.
   Particles last_good;
   keep_last_good(scene.particles, last_good);
   const std::size_t n = scene.particles.size();
   Progress progress(log, options.quiet, stepper.step_count(), steps, n);
+  // Stops the run on a blow-up: the history so far stays, the last good state is written.
+  const auto stop_on_blow_up = [&](const BlowUpError& e) {
+    progress.finish();
+    write_final_state(last_good, (directory / "last_good_state.csv").string());
+    std::ostringstream message;
+    message << e.what() << ". Likely cause: ";
+    if (description.time_step > 0.5 * recommended) {
+      message << "time.step = " << description.time_step << " s against the recommended "
+              << recommended << " s; try a smaller step";
+    } else {
+      message << "initial overlaps, a stiff material or a wall cutting particles";
+    }
+    message << ". Last good state: " << (directory / "last_good_state.csv").string();
+    throw BlowUpError(message.str());
+  };
+  if (stepper.step_count() == 0) {
+    try {
+      record();
+    } catch (const BlowUpError& e) {
+      stop_on_blow_up(e);
+    }
+    if (vtk) vtk->write(scene, stepper);
+  }
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   const std::int64_t first_step = stepper.step_count();
   for (std::int64_t s = first_step + 1; s <= steps; ++s) {
     try {
       stepper.step();
-    } catch (const BlowUpError& e) {
-      progress.finish();
-      write_history();
-      write_final_state(last_good, (directory / "last_good_state.csv").string());
-      std::ostringstream message;
-      message << e.what() << ". Likely cause: ";
-      if (description.time_step > 0.5 * recommended) {
-        message << "time.step = " << description.time_step << " s against the recommended "
-                << recommended << " s; try a smaller step";
-      } else {
-        message << "initial overlaps, a stiff material or a wall cutting particles";
+      if (s % history_every == 0 || s == steps) {
+        record();
+        keep_last_good(scene.particles, last_good);
       }
-      message << ". Last good state: " << (directory / "last_good_state.csv").string();
-      throw BlowUpError(message.str());
-    }
-    if (s % history_every == 0 || s == steps) {
-      record();
-      keep_last_good(scene.particles, last_good);
+    } catch (const BlowUpError& e) {
+      stop_on_blow_up(e);
     }
     if (vtk && (s % vtk_every == 0 || s == steps)) vtk->write(scene, stepper);
     if (s % checkpoint_every == 0 && s != steps) checkpoint();
     progress.update(s, stepper.time());
     if (options.stop_requested != nullptr && *options.stop_requested != 0 && s != steps) {
       progress.finish();
+      // A frame of the state reached, to look at; a restart drops it (an uninterrupted run has
+      // no frame here).
       if (vtk && s % vtk_every != 0) vtk->write(scene, stepper);
-      checkpoint();
-      write_history();
+      checkpoint();  // first: final_state.csv never appears without the checkpoint of its state
       write_final_state(scene.particles, (directory / "final_state.csv").string(),
                         bond_counts(scene.particles, stepper));
       std::ostringstream message;
-      // A built-in case has no file to name: `bondem run` without one picks it again.
-      const std::string case_argument =
-          description.source.rfind('<', 0) == 0 ? "" : description.source + " ";
       message << "interrupted at step " << s << " (t = " << stepper.time()
-              << " s); checkpoint written. Resume with: bondem run " << case_argument << "--output "
-              << directory.string() << " --restart " << checkpoint_path
-              << " (and the same --set options, if any)";
+              << " s); checkpoint written. Resume with: "
+              << resume_command(options, description, directory, checkpoint_path);
       throw RunInterrupted(message.str());
     }
   }
   progress.finish();
   const double wall_seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  write_history();
+  checkpoint();  // first: the end-of-run files never appear without the checkpoint of their state
+  OutputSet end_of_run(
+      {directory / "final_state.csv", directory / "clusters.csv", directory / "layer.csv"});
   write_final_state(scene.particles, (directory / "final_state.csv").string(),
                     bond_counts(scene.particles, stepper));
-  checkpoint();
 
   RunResult result;
   result.steps = steps - first_step;
@@ -442,6 +701,7 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
     }
     layer_file.commit();
   }
+  end_of_run.keep();
   return result;
 }
 

@@ -8,6 +8,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "solver/analysis.hpp"
 #include "solver/case.hpp"
@@ -17,6 +18,10 @@
 
 namespace bondem {
 
+/// Most steps a run may take: beyond, a mistyped time.end or time.step is far likelier than a
+/// real intent (10^12 steps of even one particle would take days). The case reader refuses more.
+inline constexpr double kMaxRunSteps = 1e12;
+
 /// How to run (not what: that is the case).
 struct RunOptions {
   std::string output_directory;         ///< overrides the case's output.directory when not empty
@@ -25,6 +30,8 @@ struct RunOptions {
   bool enforce_time_step_limit = true;  ///< refuse a time step above case_time_step_limit()
   /// Set asynchronously (SIGINT, SIGTERM) to stop after the current step with a checkpoint.
   const volatile std::sig_atomic_t* stop_requested = nullptr;
+  /// The command that started the run (argv), for the exact resume command; may be empty.
+  std::vector<std::string> command_line;
 };
 
 /// The run stopped on request; checkpoint and outputs are written, the message says how to resume.

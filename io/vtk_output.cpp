@@ -572,20 +572,50 @@ void VtkSeriesWriter::write_frame(double time, const Particles& particles,
   }
 }
 
-void VtkSeriesWriter::resume(double time) {
+void VtkSeriesWriter::resume(const std::function<bool(double)>& keep_frame,
+                             const std::vector<PlaneWall>& walls, const Domain& domain) {
   times_.clear();
   wall_files_.clear();
-  last_walls_.reset();  // the next frame draws its walls afresh
-  std::ifstream in(fs::path(directory_) / "walls.pvd");
-  static const std::regex entry(R"re(<DataSet timestep="([^"]+)"[^>]*file="([^"]+)")re");
-  for (std::string line; std::getline(in, line);) {
-    std::smatch match;
-    if (!std::regex_search(line, match, entry)) continue;
-    const double frame_time = std::stod(match[1].str());
-    if (frame_time > time) break;
-    times_.push_back(frame_time);
-    wall_files_.push_back(match[2].str());
+  last_walls_.reset();
+  const fs::path dir(directory_);
+  {
+    std::ifstream in(dir / "walls.pvd");
+    static const std::regex entry(R"re(<DataSet timestep="([^"]+)"[^>]*file="([^"]+)")re");
+    for (std::string line; std::getline(in, line);) {
+      std::smatch match;
+      if (!std::regex_search(line, match, entry)) continue;
+      const std::string text = match[1].str();
+      double frame_time = 0.0;
+      const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), frame_time);
+      if (error != std::errc() || end != text.data() + text.size()) break;
+      if (!keep_frame(frame_time) || (!times_.empty() && !(frame_time > times_.back()))) break;
+      times_.push_back(frame_time);
+      wall_files_.push_back(match[2].str());
+    }
   }
+  // Frames are numbered in order and a wall file is named after the frame that first drew it, so
+  // every file numbered at or after the first dropped frame belongs to dropped frames only.
+  static const std::regex frame_name("(particles|contacts|walls|tools)_([0-9]{6,12})\\.vtp");
+  std::error_code error;
+  std::vector<fs::path> dropped;
+  for (const fs::directory_entry& file : fs::directory_iterator(dir, error)) {
+    std::smatch match;
+    const std::string name = file.path().filename().string();
+    if (std::regex_match(name, match, frame_name) && std::stoull(match[2].str()) >= times_.size()) {
+      dropped.push_back(file.path());
+    }
+  }
+  for (const fs::path& path : dropped) fs::remove(path, error);
+  tools_ = fs::exists(dir / "tools.pvd", error);
+  if (times_.empty()) {
+    for (const char* name : {"particles.pvd", "contacts.pvd", "walls.pvd", "tools.pvd"}) {
+      fs::remove(dir / name, error);
+    }
+    tools_ = false;
+    return;
+  }
+  last_walls_ = WallGeometry{walls, domain, wall_extent_};
+  write_collections();
 }
 
 void VtkSeriesWriter::write_collections() const {

@@ -15,6 +15,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -90,9 +91,14 @@ class VtkSeriesWriter {
                    const std::vector<VectorField>& vectors = {},
                    const std::vector<Body>& bodies = {});
 
-  /// Continue the series a stopped run left in this directory: keep its frames at times up to
-  /// @p time (read from walls.pvd), number the next frame after them. No series: nothing kept.
-  void resume(double time);
+  /// Continue the series a stopped run left in this directory as if it had never stopped: keep
+  /// its leading frames (read from walls.pvd) while @p keep_frame(time) holds, remove the files of
+  /// every later frame, rewrite the collections and number the next frame after the kept ones.
+  /// @p walls and @p domain are the geometry the newest kept wall file shows (plane walls do not
+  /// move during a run), so the next frame reuses that file as an uninterrupted series would.
+  /// No series: nothing kept.
+  void resume(const std::function<bool(double)>& keep_frame, const std::vector<PlaneWall>& walls,
+              const Domain& domain);
 
   /// Number of frames written.
   std::size_t frames() const { return times_.size(); }

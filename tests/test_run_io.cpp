@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -65,8 +67,8 @@ TEST(Restart, VtkSeriesContinuesAcrossARestart) {
   volatile std::sig_atomic_t stop = 1;
   EXPECT_THROW(testing::quiet_run(c, resumed, "", &stop), RunInterrupted);
   testing::quiet_run(c, resumed, (resumed / "checkpoint.bin").string());
-  // Frames at 0, 1.5, 3, 4.5, 6 ms in both; the resumed series also keeps the frame written at
-  // the interruption (step 1), which lies between the first two.
+  // Frames at 0, 1.5, 3, 4.5, 6 ms in both: the restart drops the frame written at the
+  // interruption (step 1), which an uninterrupted run does not have.
   const std::string series = testing::file_bytes(whole / "particles.pvd");
   EXPECT_EQ(std::count(series.begin(), series.end(), '\n'),
             5 + 5);  // five frames, five lines of XML
@@ -76,11 +78,11 @@ TEST(Restart, VtkSeriesContinuesAcrossARestart) {
   ASSERT_NE(last.point_array("bond_count"), nullptr);
   ASSERT_NE(last.point_array("angular_velocity"), nullptr);
   EXPECT_EQ(last.point_array("angular_velocity")->components, 3);
-  const std::string resumed_series = testing::file_bytes(resumed / "particles.pvd");
-  EXPECT_EQ(std::count(resumed_series.begin(), resumed_series.end(), '\n'), 6 + 5);
+  EXPECT_TRUE(testing::file_bytes(resumed / "particles.pvd") == series);
   // The last frames hold the same particles at the same time.
-  const VtpContents resumed_last = read_vtp((resumed / "particles_000005.vtp").string());
+  const VtpContents resumed_last = read_vtp((resumed / "particles_000004.vtp").string());
   EXPECT_EQ(resumed_last.points, last.points);
+  EXPECT_FALSE(fs::exists(resumed / "particles_000005.vtp"));
 }
 
 class BadCheckpoint : public ::testing::Test {
@@ -132,6 +134,45 @@ TEST_F(BadCheckpoint, OtherVersionIsRefused) {
 TEST_F(BadCheckpoint, NotACheckpointIsRefused) {
   EXPECT_NE(error_with("id,x,y,z\n", short_packing(0.0006)).find("not a bondem checkpoint"),
             std::string::npos);
+}
+
+/// @p bytes with the checksum recomputed, as a forger would (FNV-1a over the payload).
+std::string with_valid_checksum(std::string bytes) {
+  constexpr std::size_t header = 8 + 4 + 8;
+  std::uint64_t hash = 0xcbf29ce484222325ULL;
+  for (std::size_t k = header; k < bytes.size() - 8; ++k) {
+    hash ^= static_cast<unsigned char>(bytes[k]);
+    hash *= 0x100000001b3ULL;
+  }
+  std::memcpy(bytes.data() + bytes.size() - 8, &hash, 8);
+  return bytes;
+}
+
+// Issue 12, item 10: a checksum-valid checkpoint claiming 2^60 particles made the reader allocate
+// them ("vector::_M_default_append"); sizes are now checked against the file before allocating.
+TEST_F(BadCheckpoint, ForgedHugeArrayIsRefusedBeforeAllocating) {
+  std::string bytes = good_;
+  // Payload: fingerprint, time, step, three counts, two overlaps, list builds (9 x 8 bytes), then
+  // the particle count and the id array's own count.
+  constexpr std::size_t particle_count = 8 + 4 + 8 + 9 * 8;
+  const std::uint64_t huge = std::uint64_t{1} << 60;
+  std::memcpy(bytes.data() + particle_count, &huge, 8);
+  std::memcpy(bytes.data() + particle_count + 8, &huge, 8);
+  const std::string error = error_with(with_valid_checksum(bytes), short_packing(0.0006));
+  EXPECT_NE(error.find("more than the file holds"), std::string::npos) << error;
+  EXPECT_NE(error.find("tampered.bin"), std::string::npos) << error;
+  // The untampered checksum path still accepts the original bytes.
+  EXPECT_EQ(with_valid_checksum(good_), good_);
+}
+
+// Item 10: a directory given as the checkpoint failed with "std::bad_alloc".
+TEST_F(BadCheckpoint, DirectoryIsRefused) {
+  try {
+    testing::quiet_run(short_packing(0.0006), directory_ / "resumed", directory_.string());
+    FAIL() << "a directory should have been refused";
+  } catch (const CaseError& e) {
+    EXPECT_NE(std::string(e.what()).find("not a checkpoint file"), std::string::npos) << e.what();
+  }
 }
 
 TEST_F(BadCheckpoint, OtherCaseIsRefused) {
