@@ -533,5 +533,18 @@ TEST(LayerMetrics, InvalidRegionThrows) {
   EXPECT_THROW(measure_layer(p, region), std::invalid_argument);
 }
 
+// The reader refuses a grid before the run with the count measure_layer refuses after it.
+TEST(LayerMetrics, GridColumnCountMatchesTheRefusal) {
+  const LayerRegion region = millimetre_region();  // 1 mm x 1 mm footprint
+  EXPECT_EQ(layer_grid_columns(region, 0.1e-3), 100.0);
+  EXPECT_EQ(layer_grid_columns(region, 0.3e-3), 9.0);  // round(3.33) = 3 per side
+  EXPECT_EQ(layer_grid_columns(region, 10e-3), 1.0);   // at least one column per side
+  EXPECT_EQ(layer_grid_columns(region, 1e-12), 1e18);  // no wrap-around
+  LayerRegion fine = region;
+  fine.grid_spacing = 1e-3 / 31623.0;  // 31 623^2 = 1.00001e9 columns: just over the limit
+  EXPECT_GT(layer_grid_columns(fine, fine.grid_spacing), kMaxLayerColumns);
+  EXPECT_THROW(measure_layer(Particles{}, fine), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace bondem
