@@ -58,6 +58,13 @@ expect_bad_input("--threads 100000 exceeds the limit of" run ${CASES}/powder_bed
 set(ENV{OMP_NUM_THREADS} 100000)
 expect_bad_input("OMP_NUM_THREADS asks for 100000 threads, above the limit of" run
                  ${CASES}/paper_5_1.yaml --quiet --output ${WORK}/run_env_threads)
+# --threads overrides the environment.
+execute_process(COMMAND ${BONDEM} run ${CASES}/paper_5_1.yaml --quiet --threads 1
+                --set time.end=1e-6 --output ${WORK}/env_overridden RESULT_VARIABLE env_status
+                OUTPUT_QUIET ERROR_VARIABLE env_err)
+if(NOT env_status EQUAL 0)
+  message(FATAL_ERROR "--threads 1 should override OMP_NUM_THREADS=100000: ${env_err}")
+endif()
 unset(ENV{OMP_NUM_THREADS})
 
 # Command-line parse errors: exit 2, one line.
