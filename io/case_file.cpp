@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -170,11 +171,16 @@ void apply_override(YAML::Node& root, const std::string& assignment, const std::
   const auto fail = [&](const std::string& what) -> void {
     throw CaseError("--set " + assignment + ": " + what + " (in " + source + ")");
   };
+  // Split by hand: getline drops a trailing empty component, so `time.end.` would read as
+  // `time.end` and `a.` as `a`.
   std::vector<std::string> parts;
-  std::stringstream stream(path);
-  for (std::string part; std::getline(stream, part, '.');) {
+  for (std::size_t begin = 0;;) {
+    const std::size_t dot = path.find('.', begin);
+    const std::string part = path.substr(begin, dot == std::string::npos ? dot : dot - begin);
     if (part.empty()) fail("empty component in key '" + path + "'");
     parts.push_back(part);
+    if (dot == std::string::npos) break;
+    begin = dot + 1;
   }
   YAML::Node node = root;
   std::string walked;
@@ -185,8 +191,10 @@ void apply_override(YAML::Node& root, const std::string& assignment, const std::
     const YAML::Node& view = node;  // const lookups never insert keys into the tree
     std::size_t index = 0;
     if (node.IsSequence()) {
-      const bool is_index = std::all_of(part.begin(), part.end(), ::isdigit);
-      if (is_index) index = std::stoul(part);
+      // from_chars refuses what does not fit size_t, where stoul would throw its own message.
+      const char* const end = part.data() + part.size();
+      const auto [stop, error] = std::from_chars(part.data(), end, index);
+      const bool is_index = error == std::errc() && stop == end;
       if (!is_index || index >= node.size()) {
         fail("'" + walked + "' is not an index of a list of " + std::to_string(node.size()));
       }
@@ -542,35 +550,78 @@ void check_inside(const Reader& reader, const Case& c, const ParticleSpec& p,
   }
 }
 
-/// Explicit particles must not overlap: a solver would start with an unphysical impulse.
-/// Sweep along x so that large lists stay O(N log N + close pairs).
-void check_explicit_overlaps(const Reader& reader, const Case& c, const YAML::Node& list) {
-  const std::size_t n = c.particles.size();
-  std::vector<std::size_t> order(n);
-  for (std::size_t k = 0; k < n; ++k) order[k] = k;
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    return c.particles[a].position.x() < c.particles[b].position.x();
-  });
+/// Where the particles of one `particles.k` or `insert.k` entry start in Case::particles.
+struct ParticleEntry {
+  std::size_t first = 0;
+  std::string key;
+  YAML::Node node;
+};
+
+/// The entry that particle @p index came from: @p entries are in order of `first`.
+const ParticleEntry& entry_of(const std::vector<ParticleEntry>& entries, std::size_t index) {
+  const auto after =
+      std::upper_bound(entries.begin(), entries.end(), index,
+                       [](std::size_t i, const ParticleEntry& entry) { return i < entry.first; });
+  return *(after - 1);
+}
+
+std::string number_text(double value) {
+  std::ostringstream text;
+  text << value;
+  return text.str();
+}
+
+/// One check over every initial particle, explicit or inserted, across entries and periodic
+/// boundaries: an overlap deeper than the run's own limit would stop the run at its first step.
+void check_initial_overlaps(const Reader& reader, const Case& c,
+                            const std::vector<ParticleEntry>& entries) {
+  const std::optional<InitialOverlap> overlap =
+      find_initial_overlap(c.particles, c.domain ? &*c.domain : nullptr, c.max_overlap_fraction);
+  if (!overlap) return;
+  const ParticleEntry& later = entry_of(entries, overlap->later);
+  const ParticleEntry& earlier = entry_of(entries, overlap->earlier);
+  const bool inserted = later.key.rfind("insert.", 0) == 0;
+  std::string what;
+  if (inserted) {
+    const Eigen::Vector3d& x = c.particles[overlap->later].position;
+    what = "its particle at [" + number_text(x.x()) + ", " + number_text(x.y()) + ", " +
+           number_text(x.z()) + "] ";
+  }
+  what += "overlaps " + (&later == &earlier ? "another particle of " + earlier.key : earlier.key);
+  if (overlap->across_boundary) what += " across the periodic boundary";
+  what += " by " + number_text(overlap->fraction) +
+          " of the smaller radius, more than limits.max_overlap_fraction = " +
+          number_text(c.max_overlap_fraction) + " allows (the run would stop at its first step)";
+  reader.fail(later.node, later.key, what);
+}
+
+/// A periodic axis needs three neighbor cells of 2 * largest radius + skin (NeighborList).
+void check_periodic_axes(const Reader& reader, const Case& c, const YAML::Node& root) {
+  if (!c.domain || c.particles.empty()) return;
   double max_radius = 0.0;
   for (const ParticleSpec& p : c.particles) max_radius = std::max(max_radius, p.radius);
-  for (std::size_t a = 0; a < n; ++a) {
-    const ParticleSpec& p = c.particles[order[a]];
-    for (std::size_t b = a + 1; b < n; ++b) {
-      const ParticleSpec& q = c.particles[order[b]];
-      if (q.position.x() - p.position.x() > p.radius + max_radius) break;
-      const double reach = p.radius + q.radius;
-      // Touching is allowed; round-off of a written-out contact distance is not an overlap.
-      if ((q.position - p.position).norm() < reach * (1.0 - 1e-12)) {
-        const std::size_t first = std::min(order[a], order[b]);
-        const std::size_t later = std::max(order[a], order[b]);
-        reader.fail(list[later], Reader::join("particles", later),
-                    "overlaps particles." + std::to_string(first));
-      }
+  const double skin = c.skin > 0.0 ? c.skin : 0.2 * max_radius;  // as build_scene
+  const double cell = 2.0 * max_radius + skin;
+  const Eigen::Vector3d length = c.domain->length();
+  for (int a = 0; a < 3; ++a) {
+    if (!c.domain->periodic[a] || std::floor(length[a] / cell) >= 3.0) continue;
+    std::string what = std::string("periodic axis ") + "xyz"[a] + " of length " +
+                       number_text(length[a]) + " m is shorter than three neighbor cells of " +
+                       number_text(cell) + " m (largest diameter " + number_text(2.0 * max_radius) +
+                       " m + skin " + number_text(skin) + " m)";
+    if (c.skin > 0.0) {  // given, in the file or by --set
+      const YAML::Node skin_node = root["neighbors"]["skin"];
+      const double room = length[a] / 3.0 - 2.0 * max_radius;
+      reader.fail(skin_node, "neighbors.skin",
+                  what + (room > 0.0 ? "; the skin must be below " + number_text(room) + " m"
+                                     : "; enlarge the domain"));
     }
+    reader.fail(root["domain"]["periodic"], "domain.periodic", what + "; enlarge the domain");
   }
 }
 
-void read_insertions(const Reader& reader, Case& c, const YAML::Node& insert) {
+void read_insertions(const Reader& reader, Case& c, const YAML::Node& insert,
+                     std::vector<ParticleEntry>& entries) {
   if (!insert.IsSequence()) reader.fail(insert, "insert", "expected a list of insertions");
   for (std::size_t k = 0; k < insert.size(); ++k) {
     const YAML::Node body = insert[k];
@@ -590,6 +641,25 @@ void read_insertions(const Reader& reader, Case& c, const YAML::Node& insert) {
             reader.positive(reader.require(body, path, "spacing"), path + ".spacing");
         const double radius =
             reader.positive(reader.require(body, path, "radius"), path + ".radius");
+        // Counts and the lattice's own overlap are known before a single particle is made.
+        const std::array<double, 3> counts = lattice_counts(region, spacing, radius);
+        const YAML::Node spacing_node = body["spacing"];
+        const double total = counts[0] * counts[1] * counts[2];
+        if (!(total <= kMaxInsertedParticles)) {
+          reader.fail(spacing_node, path + ".spacing",
+                      "gives " + number_text(counts[0]) + " x " + number_text(counts[1]) + " x " +
+                          number_text(counts[2]) + " = " + number_text(total) +
+                          " particles, more than the limit of " +
+                          number_text(kMaxInsertedParticles) + " per insertion");
+        }
+        const double overlap = (2.0 * radius - spacing) / radius;
+        if (std::max({counts[0], counts[1], counts[2]}) > 1.0 && overlap > c.max_overlap_fraction) {
+          reader.fail(spacing_node, path + ".spacing",
+                      "neighbors of the lattice overlap by " + number_text(overlap) +
+                          " of their radius, more than limits.max_overlap_fraction = " +
+                          number_text(c.max_overlap_fraction) +
+                          " allows (the run would stop at its first step)");
+        }
         added = insert_lattice(region, spacing, radius, material_index(reader, c, body, path));
       } else if (kind == "random") {
         reader.check_keys(body, path,
@@ -630,6 +700,7 @@ void read_insertions(const Reader& reader, Case& c, const YAML::Node& insert) {
     }
     if (const YAML::Node v = body["velocity"]) velocity = reader.vector3(v, path + ".velocity");
     const double temperature = particle_temperature(reader, c, body, path);
+    if (!added.empty()) entries.push_back({c.particles.size(), path, body});
     for (ParticleSpec& p : added) {
       p.velocity = velocity;
       p.temperature = temperature;
@@ -653,9 +724,19 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
   reader.expect_map(materials, "materials");
   if (materials.size() == 0) reader.fail(materials, "materials", "at least one material needed");
   for (const auto& entry : materials) {
+    // yaml-cpp keeps both entries of a repeated key (lookups see only the first) and turns a
+    // non-scalar key into an empty name: both would silently define the wrong material.
+    const YAML::Node& key = entry.first;
+    if (!key.IsScalar() || key.Scalar().empty()) {
+      reader.fail(key, "materials", "a material's name must be a plain, non-empty name");
+    }
     Material m;
-    m.name = entry.first.Scalar();
+    m.name = key.Scalar();
     const std::string path = Reader::join("materials", m.name);
+    if (std::any_of(c.materials.begin(), c.materials.end(),
+                    [&](const Material& known) { return known.name == m.name; })) {
+      reader.fail(key, path, "material defined twice");
+    }
     const YAML::Node& body = entry.second;
     reader.expect_map(body, path);
     reader.check_keys(body, path,
@@ -694,6 +775,17 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
   }
   c.contact_damping = reader.non_negative(reader.require(contact, "contact", "damping_ratio"),
                                           "contact.damping_ratio");
+
+  // Before any particle: the initial-overlap checks use the run's limit.
+  if (const YAML::Node limits = root["limits"]) {
+    reader.expect_map(limits, "limits");
+    reader.check_keys(limits, "limits", {"max_overlap_fraction"});
+    const YAML::Node fraction = reader.require(limits, "limits", "max_overlap_fraction");
+    c.max_overlap_fraction = reader.positive(fraction, "limits.max_overlap_fraction");
+    if (c.max_overlap_fraction > 1.0) {
+      reader.fail(fraction, "limits.max_overlap_fraction", "must not exceed 1 (a whole radius)");
+    }
+  }
 
   // Read first: whether temperatures are tracked decides which other keys are allowed.
   if (const YAML::Node thermal = root["thermal"]) c.thermal = read_thermal(reader, thermal);
@@ -804,13 +896,16 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
   }
 
   const std::size_t explicit_count = c.particles.size();
-  check_explicit_overlaps(reader, c, particles);
+  std::vector<ParticleEntry> entries;
+  for (std::size_t k = 0; k < explicit_count; ++k) {
+    entries.push_back({k, Reader::join("particles", k), particles[k]});
+  }
   if (const YAML::Node domain = root["domain"]) c.domain = read_domain(reader, domain, "domain");
   if (const YAML::Node walls = root["walls"]) read_walls(reader, c, walls);
   for (std::size_t k = 0; k < explicit_count; ++k) {
     check_inside(reader, c, c.particles[k], particles[k], Reader::join("particles", k));
   }
-  if (const YAML::Node insert = root["insert"]) read_insertions(reader, c, insert);
+  if (const YAML::Node insert = root["insert"]) read_insertions(reader, c, insert, entries);
   if (c.particles.empty()) reader.fail(root, "particles", "the case has no particles");
   if (c.thermal) {
     // m c_p dT/dt needs a heat capacity for every particle; walls only need a conductivity.
@@ -838,16 +933,8 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
           static_cast<int>(reader.integer(interval, "neighbors.reorder_interval", 0, 1000000));
     }
   }
-
-  if (const YAML::Node limits = root["limits"]) {
-    reader.expect_map(limits, "limits");
-    reader.check_keys(limits, "limits", {"max_overlap_fraction"});
-    const YAML::Node fraction = reader.require(limits, "limits", "max_overlap_fraction");
-    c.max_overlap_fraction = reader.positive(fraction, "limits.max_overlap_fraction");
-    if (c.max_overlap_fraction > 1.0) {
-      reader.fail(fraction, "limits.max_overlap_fraction", "must not exceed 1 (a whole radius)");
-    }
-  }
+  check_periodic_axes(reader, c, root);
+  check_initial_overlaps(reader, c, entries);
 
   if (const YAML::Node output = root["output"]) {
     reader.expect_map(output, "output");

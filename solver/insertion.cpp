@@ -51,6 +51,19 @@ double radius_upper_bound(const RadiusDistribution& d) {
   return 0.0;
 }
 
+/// Smallest radius the distribution can produce, or 0 when it has no lower bound.
+double radius_lower_bound(const RadiusDistribution& d) {
+  switch (d.kind) {
+    case RadiusDistribution::Kind::kConstant:
+      return d.value;
+    case RadiusDistribution::Kind::kUniform:
+    case RadiusDistribution::Kind::kNormal:
+    case RadiusDistribution::Kind::kLogNormal:
+      return d.min;
+  }
+  return 0.0;
+}
+
 double raw_draw(const RadiusDistribution& d, Rng& rng) {
   switch (d.kind) {
     case RadiusDistribution::Kind::kConstant:
@@ -226,8 +239,7 @@ double draw_radius(const RadiusDistribution& distribution, Rng& rng) {
                               " draws in a row; they hold almost none of the distribution");
 }
 
-std::vector<ParticleSpec> insert_lattice(const Box& region, double spacing, double radius,
-                                         int material) {
+std::array<double, 3> lattice_counts(const Box& region, double spacing, double radius) {
   validate_box(region, "lattice");
   if (!(spacing > 0.0) || !std::isfinite(spacing)) {
     throw std::invalid_argument("lattice: spacing must be > 0");
@@ -235,18 +247,34 @@ std::vector<ParticleSpec> insert_lattice(const Box& region, double spacing, doub
   if (!(radius > 0.0) || !std::isfinite(radius)) {
     throw std::invalid_argument("lattice: radius must be > 0");
   }
-  if (material < 0) throw std::invalid_argument("lattice: material index must be >= 0");
   if (2.0 * radius > smallest_extent(region)) {
     throw std::invalid_argument("lattice: a sphere of radius " + std::to_string(radius) +
                                 " does not fit the region " + box_text(region));
   }
   // Count rather than step while inside, so rounding cannot add or drop a layer; the small
   // tolerance keeps the layer that touches the far wall exactly (e.g. 5 spheres of r = 0.1 in 1).
-  std::array<std::size_t, 3> n{};
+  std::array<double, 3> n{};
   for (int a = 0; a < 3; ++a) {
     const double room = (region.max[a] - region.min[a] - 2.0 * radius) / spacing;
-    n[static_cast<std::size_t>(a)] = static_cast<std::size_t>(std::floor(room + 1e-9)) + 1;
+    n[static_cast<std::size_t>(a)] = std::floor(room + 1e-9) + 1.0;
   }
+  return n;
+}
+
+std::vector<ParticleSpec> insert_lattice(const Box& region, double spacing, double radius,
+                                         int material) {
+  const std::array<double, 3> counts = lattice_counts(region, spacing, radius);
+  if (material < 0) throw std::invalid_argument("lattice: material index must be >= 0");
+  const double total = counts[0] * counts[1] * counts[2];
+  if (!(total <= kMaxInsertedParticles)) {
+    std::ostringstream m;
+    m << "lattice: " << counts[0] << " x " << counts[1] << " x " << counts[2] << " = " << total
+      << " particles exceed the limit of " << kMaxInsertedParticles
+      << " per insertion; raise the spacing or shrink the region";
+    throw std::invalid_argument(m.str());
+  }
+  std::array<std::size_t, 3> n{};
+  for (std::size_t a = 0; a < 3; ++a) n[a] = static_cast<std::size_t>(counts[a]);
   std::vector<ParticleSpec> out;
   out.reserve(n[0] * n[1] * n[2]);
   for (std::size_t k = 0; k < n[2]; ++k) {
@@ -292,8 +320,21 @@ std::vector<ParticleSpec> insert_random_fill(const FillRequest& request,
   if (request.solid_fraction > kMaxRandomFillSolidFraction) {
     refuse_too_dense("target solid fraction", request.solid_fraction);
   }
-
   const double region_volume = region.volume();
+  if (static_cast<double>(request.count) > kMaxInsertedParticles) {
+    std::ostringstream m;
+    m << "random fill: count " << request.count << " exceeds the limit of " << kMaxInsertedParticles
+      << " per insertion";
+    throw std::invalid_argument(m.str());
+  }
+  // Refuse a count whose spheres cannot fit at their smallest possible size before drawing them.
+  const double smallest_volume = sphere_volume(radius_lower_bound(request.radius));
+  if (static_cast<double>(request.count) * smallest_volume / region_volume >
+      kMaxRandomFillSolidFraction) {
+    refuse_too_dense("count " + std::to_string(request.count) +
+                         " even at the smallest possible radius: solid fraction",
+                     static_cast<double>(request.count) * smallest_volume / region_volume);
+  }
   Rng rng(request.seed);
 
   // Radii first: the target is reached by construction, and sorting them is possible.
@@ -309,10 +350,15 @@ std::vector<ParticleSpec> insert_random_fill(const FillRequest& request,
     }
     radii.push_back(r);
     drawn_volume += sphere_volume(r);
+    // Past the limit the fill is refused below whatever is drawn next: stop drawing now.
+    if (request.count > 0 && drawn_volume / region_volume > kMaxRandomFillSolidFraction) break;
   }
   if (drawn_volume / region_volume > kMaxRandomFillSolidFraction) {
-    refuse_too_dense("the " + std::to_string(radii.size()) + " drawn particles have solid fraction",
-                     drawn_volume / region_volume);
+    const std::string drawn = radii.size() < request.count
+                                  ? "the first " + std::to_string(radii.size()) + " of " +
+                                        std::to_string(request.count) + " drawn particles have"
+                                  : "the " + std::to_string(radii.size()) + " drawn particles have";
+    refuse_too_dense(drawn + " solid fraction", drawn_volume / region_volume);
   }
   // Ties are equal values, so the sorted sequence does not depend on the sort algorithm.
   std::sort(radii.begin(), radii.end(), std::greater<>());
@@ -416,6 +462,113 @@ std::vector<ParticleSpec> insert_random_fill(const FillRequest& request,
     }
   }
   return out;
+}
+
+std::optional<InitialOverlap> find_initial_overlap(const std::vector<ParticleSpec>& particles,
+                                                   const Domain* domain, double max_fraction) {
+  const std::size_t n = particles.size();
+  if (n < 2) return std::nullopt;
+  double r_max = 0.0;
+  Eigen::Vector3d lo = particles.front().position, hi = lo;
+  for (const ParticleSpec& p : particles) {
+    r_max = std::max(r_max, p.radius);
+    lo = lo.cwiseMin(p.position);
+    hi = hi.cwiseMax(p.position);
+  }
+  std::array<bool, 3> periodic{false, false, false};
+  Eigen::Vector3d period = Eigen::Vector3d::Zero();
+  if (domain != nullptr) {
+    periodic = domain->periodic;
+    for (int a = 0; a < 3; ++a) {
+      if (!periodic[a]) continue;
+      lo[a] = domain->min[a];
+      hi[a] = domain->max[a];
+      period[a] = domain->max[a] - domain->min[a];
+    }
+  }
+  // Cells of edge >= 2 r_max hold every partner of a particle in the 27 cells around it;
+  // coordinates are clamped into the grid, which keeps that true for any particle.
+  const Box bounds{lo, lo + (hi - lo).cwiseMax(Eigen::Vector3d::Constant(2.0 * r_max))};
+  const std::array<std::size_t, 3> cells =
+      grid_cells(bounds, 2.0 * r_max, static_cast<double>(n) + 64.0);
+  std::array<double, 3> width{};
+  for (int a = 0; a < 3; ++a) {
+    width[a] = (bounds.max[a] - bounds.min[a]) / static_cast<double>(cells[a]);
+  }
+  const auto cell_coordinate = [&](int a, double v) -> std::size_t {
+    const double c = std::floor((v - bounds.min[a]) / width[a]);
+    if (!(c > 0.0)) return 0;
+    return static_cast<std::size_t>(std::min(c, static_cast<double>(cells[a] - 1)));
+  };
+  // count -> scan -> fill: each cell lists its particles in index order.
+  std::vector<std::size_t> cell_of(n);
+  std::vector<std::size_t> begin(cells[0] * cells[1] * cells[2] + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3d& x = particles[i].position;
+    cell_of[i] = (cell_coordinate(2, x.z()) * cells[1] + cell_coordinate(1, x.y())) * cells[0] +
+                 cell_coordinate(0, x.x());
+    ++begin[cell_of[i] + 1];
+  }
+  for (std::size_t c = 1; c < begin.size(); ++c) begin[c] += begin[c - 1];
+  std::vector<std::size_t> items(n);
+  std::vector<std::size_t> cursor(begin.begin(), begin.end() - 1);
+  for (std::size_t i = 0; i < n; ++i) items[cursor[cell_of[i]]++] = i;
+
+  for (std::size_t i = 0; i < n; ++i) {
+    const ParticleSpec& p = particles[i];
+    std::array<std::size_t, 3> home{};
+    home[0] = cell_of[i] % cells[0];
+    home[1] = cell_of[i] / cells[0] % cells[1];
+    home[2] = cell_of[i] / (cells[0] * cells[1]);
+    // Cells to visit per axis: the neighbors, wrapped on periodic axes, each once.
+    std::array<std::vector<std::size_t>, 3> visit;
+    for (std::size_t a = 0; a < 3; ++a) {
+      const std::size_t count = cells[a];
+      for (int offset = -1; offset <= 1; ++offset) {
+        const auto c = static_cast<long long>(home[a]) + offset;
+        std::size_t cell = 0;
+        if (c >= 0 && c < static_cast<long long>(count)) {
+          cell = static_cast<std::size_t>(c);
+        } else if (periodic[a]) {
+          cell = c < 0 ? count - 1 : 0;
+        } else {
+          continue;
+        }
+        if (std::find(visit[a].begin(), visit[a].end(), cell) == visit[a].end()) {
+          visit[a].push_back(cell);
+        }
+      }
+    }
+    std::optional<InitialOverlap> found;
+    for (const std::size_t z : visit[2]) {
+      for (const std::size_t y : visit[1]) {
+        for (const std::size_t x : visit[0]) {
+          const std::size_t cell = (z * cells[1] + y) * cells[0] + x;
+          for (std::size_t k = begin[cell]; k < begin[cell + 1]; ++k) {
+            const std::size_t j = items[k];
+            if (j >= i) break;  // index order within a cell: only earlier particles
+            if (found && j >= found->earlier) break;
+            Eigen::Vector3d d = particles[j].position - p.position;
+            bool wrapped = false;
+            for (int a = 0; a < 3; ++a) {
+              if (!periodic[a]) continue;
+              const double shift = period[a] * std::round(d[a] / period[a]);
+              wrapped = wrapped || shift != 0.0;
+              d[a] -= shift;
+            }
+            const double smaller = std::min(p.radius, particles[j].radius);
+            const double overlap = p.radius + particles[j].radius - d.norm();
+            if (overlap > max_fraction * smaller) {
+              found = InitialOverlap{i, j, overlap / smaller, wrapped};
+              break;
+            }
+          }
+        }
+      }
+    }
+    if (found) return found;
+  }
+  return std::nullopt;
 }
 
 }  // namespace bondem

@@ -9,14 +9,17 @@
 /// different standard libraries.
 
 #include <Eigen/Core>
+#include <array>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <random>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "geometry/box.hpp"
+#include "geometry/domain.hpp"
 #include "solver/case.hpp"
 
 namespace bondem {
@@ -68,13 +71,22 @@ void validate(const RadiusDistribution& distribution);
 /// for an invalid distribution or cut-offs that reject 10000 draws in a row.
 double draw_radius(const RadiusDistribution& distribution, Rng& rng);
 
+/// Most particles one insertion may create: a lattice or a random-fill count beyond it is refused
+/// before anything is allocated (a few hundred bytes per particle in a run: 10^8 is tens of GB).
+inline constexpr double kMaxInsertedParticles = 1e8;
+
+/// Particles per axis of insert_lattice(), counted in double so that no count can overflow.
+/// Throws std::invalid_argument as insert_lattice() does for invalid arguments.
+std::array<double, 3> lattice_counts(const Box& region, double spacing, double radius);
+
 /// Simple-cubic lattice of particles of one radius filling the region: centers at
 /// min + radius + k*spacing while the sphere fits. Returns specs with the given material index and
 /// zero velocity, x varying fastest, then y, then z.
 ///
 /// A spacing below 2*radius is allowed on purpose: it starts neighbors overlapped (e.g. at the
 /// bond's equilibrium overlap). Throws std::invalid_argument for a degenerate box, non-positive
-/// radius or spacing, a negative material, or a sphere that does not fit the region.
+/// radius or spacing, a negative material, a sphere that does not fit the region, or more than
+/// kMaxInsertedParticles particles.
 std::vector<ParticleSpec> insert_lattice(const Box& region, double spacing, double radius,
                                          int material);
 
@@ -106,10 +118,28 @@ struct FillRequest {
 /// `solid_fraction` counts only this request's particles; @p existing particles inside the region
 /// make it harder to reach. The output is in placement order (radius descending).
 ///
-/// Throws std::invalid_argument for invalid requests and InsertionError, with target, reached
-/// count and solid fraction and attempts, when the target is above kMaxRandomFillSolidFraction
-/// or a particle finds no free position: for denser packings, pour and settle under gravity.
+/// Throws std::invalid_argument for invalid requests (a count above kMaxInsertedParticles among
+/// them) and InsertionError, with target, reached count and solid fraction and attempts, when the
+/// target is above kMaxRandomFillSolidFraction or a particle finds no free position: for denser
+/// packings, pour and settle under gravity. A count whose smallest possible spheres already
+/// exceed kMaxRandomFillSolidFraction is refused before any radius is drawn, and drawing stops
+/// as soon as the drawn volume passes it, so an impossible count costs neither time nor memory.
 std::vector<ParticleSpec> insert_random_fill(const FillRequest& request,
                                              const std::vector<ParticleSpec>& existing = {});
+
+/// Two initial particles that overlap by more than a run allows.
+struct InitialOverlap {
+  std::size_t later = 0;         ///< index of the later particle of the pair
+  std::size_t earlier = 0;       ///< index of the earlier one
+  double fraction = 0.0;         ///< overlap / smaller radius
+  bool across_boundary = false;  ///< the overlap is with a periodic image
+};
+
+/// The overlap of @p particles deeper than @p max_fraction of the smaller radius (what makes a
+/// run stop at its first step) with the smallest `later`, then the smallest `earlier`, or none.
+/// With a @p domain, its periodic axes wrap (nearest image; exact for axes longer than four
+/// radii). A uniform cell grid of about one cell per particle keeps it O(N).
+std::optional<InitialOverlap> find_initial_overlap(const std::vector<ParticleSpec>& particles,
+                                                   const Domain* domain, double max_fraction);
 
 }  // namespace bondem

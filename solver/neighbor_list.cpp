@@ -21,6 +21,25 @@ constexpr std::uint8_t image_code(int sx, int sy, int sz) {
   return static_cast<std::uint8_t>((sx + 1) + 3 * (sy + 1) + 9 * (sz + 1));
 }
 
+/// Cells per axis of edge >= @p cell_size, at most about @p max_cells in all: unpinned axes are
+/// widened alike by steps of 1.25 until the total fits; a @p pinned axis keeps three cells.
+std::array<int, 3> grid_cells(const Eigen::Vector3d& length, double cell_size, double max_cells,
+                              const std::array<bool, 3>& pinned) {
+  std::array<int, 3> cells{};
+  double width = cell_size;
+  for (;;) {
+    double total = 1.0;
+    for (int a = 0; a < 3; ++a)
+      total *= pinned[a] ? 3.0 : std::max(1.0, std::floor(length[a] / width));
+    if (total <= max_cells) break;
+    width *= 1.25;
+  }
+  for (int a = 0; a < 3; ++a) {
+    cells[a] = pinned[a] ? 3 : std::max(1, static_cast<int>(std::floor(length[a] / width)));
+  }
+  return cells;
+}
+
 }  // namespace
 
 void NeighborList::bin(const Particles& p, const Domain& domain, double cell_size) {
@@ -28,15 +47,18 @@ void NeighborList::bin(const Particles& p, const Domain& domain, double cell_siz
   const Eigen::Vector3d length = domain.length();
   // Bound the grid to a few cells per particle: an oversized box must not cost memory.
   const double max_cells = 8.0 * static_cast<double>(n) + 1000.0;
-  double width = cell_size;
-  for (;;) {
-    double total = 1.0;
-    for (int a = 0; a < 3; ++a) total *= std::max(1.0, std::floor(length[a] / width));
-    if (total <= max_cells) break;
-    width *= 1.25;
-  }
+  cells_ = grid_cells(length, cell_size, max_cells, {false, false, false});
+  // Widening every axis alike can leave a periodic axis, long enough for three cells of
+  // cell_size, with fewer than three (a short axis of a flat, wide domain). Keep those at three
+  // and widen only the other axes; cases the first grid served keep it, and their bytes.
+  std::array<bool, 3> pinned{};
+  bool any_pinned = false;
   for (int a = 0; a < 3; ++a) {
-    cells_[a] = std::max(1, static_cast<int>(std::floor(length[a] / width)));
+    pinned[a] = domain.periodic[a] && cells_[a] < 3 && std::floor(length[a] / cell_size) >= 3.0;
+    any_pinned = any_pinned || pinned[a];
+  }
+  if (any_pinned) cells_ = grid_cells(length, cell_size, max_cells, pinned);
+  for (int a = 0; a < 3; ++a) {
     cell_width_[a] = length[a] / cells_[a];
     if (domain.periodic[a] && cells_[a] < 3) {
       std::ostringstream message;

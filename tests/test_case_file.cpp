@@ -179,7 +179,8 @@ walls:
   EXPECT_EQ(error_of(fixed), "");
   EXPECT_NE(error_of(fixed, {"particles.1.position.0=0.02"}).find("lies outside the domain"),
             std::string::npos);
-  EXPECT_NE(error_of(fixed, {"particles.1.position.0=0.0019"}).find("overlaps particles.0"),
+  // Half a radius of overlap: above the run's limit (limits.max_overlap_fraction, 0.25).
+  EXPECT_NE(error_of(fixed, {"particles.1.position.0=0.0015"}).find("overlaps particles.0"),
             std::string::npos);
   EXPECT_NE(error_of(fixed, {"domain.max.1=-0.02"}).find("must exceed min"), std::string::npos);
 }

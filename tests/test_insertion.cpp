@@ -351,6 +351,7 @@ TEST(Insertion, RandomFillRejectsInvalidRequests) {
   uncapped.radius.mean = 0.4;
   uncapped.radius.std_dev = 0.2;
   uncapped.count = 100;
+  uncapped.region.max.z() = 100.0;  // room for 100 such spheres: the radius, not the count, fails
   EXPECT_THROW(insert_random_fill(uncapped), std::invalid_argument);
 }
 

@@ -106,6 +106,35 @@ TEST(NeighborList, ReorderingKeepsIdsAndState) {
   for (int count : seen) EXPECT_EQ(count, 1);
 }
 
+TEST(NeighborList, ShortPeriodicAxisOfAWideDomainKeepsThreeCells) {
+  // Issue 12: a periodic y of 0.5 mm holds five cells of 90 um, but the memory cap on a wide,
+  // sparsely filled domain widened all cells alike until y had one, and the build was refused.
+  Case c = testing::soft_case(0.0);
+  c.domain = Domain{};
+  c.domain->min = Eigen::Vector3d::Zero();
+  c.domain->max = Eigen::Vector3d(0.05, 0.0005, 0.05);
+  c.domain->periodic = {false, true, false};
+  const double r = 40e-6;
+  // A pair touching across the periodic face, a pair inside, and a spread of loners.
+  const std::vector<Eigen::Vector3d> centres = {{0.01, 0.00005, 0.01},  {0.01, 0.00047, 0.01},
+                                                {0.03, 0.00025, 0.02},  {0.03, 0.00033, 0.02},
+                                                {0.045, 0.0001, 0.001}, {0.002, 0.0004, 0.049},
+                                                {0.025, 0.00049, 0.03}, {0.025, 0.00001, 0.03005}};
+  for (const Eigen::Vector3d& x : centres) {
+    ParticleSpec p;
+    p.radius = r;
+    p.position = x;
+    c.particles.push_back(p);
+  }
+  Scene scene = build_scene(c);
+  const double skin = 10e-6;
+  NeighborList list;
+  ASSERT_NO_THROW(list.build(scene.particles, scene.domain, skin, false));
+  const PairSet expected = oracle(scene.particles, scene.domain, skin);
+  EXPECT_EQ(expected.size(), 3u) << "two pairs across the face and one inside";
+  EXPECT_EQ(listed_contacts(scene.particles, list, skin, scene.domain), expected);
+}
+
 TEST(NeighborList, RefusesPeriodicAxisShorterThanThreeCells) {
   Case c = testing::soft_case(0.0);
   testing::add_random_gas(c, 3, 0.4e-3, 0.5e-3, 0.002, 1.0, 3);
