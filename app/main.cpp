@@ -55,6 +55,11 @@ void print_quantity(const std::string& name, double value, const std::string& un
 int run_info(const std::string& case_path, const std::vector<std::string>& overrides,
              std::optional<double> velocity) {
   const Case c = bondem::load_case(case_path, overrides);
+  // First: a non-finite or unphysical derived quantity is an input error, before any output.
+  const bondem::TimeStepLimit limit = bondem::case_time_step_bound(c);
+  if (velocity && !(*velocity > 0.0 && std::isfinite(*velocity))) {
+    throw UsageError("--velocity must be a positive finite speed");
+  }
   const double reference = velocity.value_or(bondem::reference_impact_speed(c));
   const char* reference_source =
       velocity ? "--velocity" : "fastest impact of the case (initial speeds, fall under gravity)";
@@ -77,18 +82,26 @@ int run_info(const std::string& case_path, const std::vector<std::string>& overr
       print_quantity("effective_modulus", r.effective_modulus, "Pa");
       print_quantity("effective_radius", r.effective_radius, "m");
       print_quantity("effective_mass", r.effective_mass, "kg");
-      print_quantity("alpha", c.bond.alpha, "");
-      print_quantity("adhesion_stiffness", r.adhesion_stiffness,
-                     c.bond.alpha == 1.0 ? "N/m" : "N/m^" + std::to_string(c.bond.alpha));
-      print_quantity("equilibrium_overlap", r.equilibrium_overlap, "m");
-      print_quantity("critical_overlap", r.critical_overlap, "m");
-      print_quantity("critical_velocity", r.critical_velocity, "m/s");
-      print_quantity("bond_stiffness_at_equilibrium", r.bond_stiffness, "N/m");
-      print_quantity("bond_period", r.bond_period, "s");
+      print_quantity("contact_damping_ratio", c.contact_damping, "");
+      print_quantity("contact_restitution", r.restitution, "");
+      if (r.bonding) {
+        print_quantity("alpha", c.bond.alpha, "");
+        print_quantity("adhesion_stiffness", r.adhesion_stiffness,
+                       c.bond.alpha == 1.0 ? "N/m" : "N/m^" + std::to_string(c.bond.alpha));
+        print_quantity("equilibrium_overlap", r.equilibrium_overlap, "m");
+        print_quantity("critical_overlap", r.critical_overlap, "m");
+        print_quantity("critical_velocity", r.critical_velocity, "m/s");
+        print_quantity("bond_stiffness_at_equilibrium", r.bond_stiffness, "N/m");
+        print_quantity("bond_period", r.bond_period, "s");
+      } else {
+        std::cout << "# no bond (no bond: block, or criterion never): bond quantities omitted\n";
+      }
       print_quantity("reference_velocity", r.reference_velocity, "m/s");
       print_quantity("hertz_max_overlap", r.max_overlap, "m");
       print_quantity("hertz_contact_time", r.contact_time, "s");
       print_quantity("rayleigh_time", r.rayleigh_time, "s");
+      print_quantity("contact_damper_time_step", r.contact_damper_step, "s");
+      if (r.bonding) print_quantity("bond_damper_time_step", r.bond_damper_step, "s");
       print_quantity("recommended_time_step", r.recommended_time_step, "s");
       print_quantity("time_step", c.time_step, "s");
       print_quantity("steps_per_contact", r.contact_time / c.time_step, "");
@@ -98,7 +111,8 @@ int run_info(const std::string& case_path, const std::vector<std::string>& overr
       }
     }
   }
-  print_quantity("case_time_step_limit", bondem::case_time_step_limit(c), "s");
+  std::cout << "# case time-step limit set by " << limit.cause << "\n";
+  print_quantity("case_time_step_limit", limit.step, "s");
   return 0;
 }
 

@@ -387,13 +387,13 @@ class VtkObserver {
 }  // namespace
 
 RunResult run_case(const Case& description, const RunOptions& options, std::ostream& log) {
-  const double recommended = case_time_step_limit(description);
+  const TimeStepLimit limit = case_time_step_bound(description);
+  const double recommended = limit.step;
   if (options.enforce_time_step_limit && description.time_step > recommended) {
     std::ostringstream message;
     message << description.source << ": 'time.step': " << description.time_step
-            << " s is above the recommended " << recommended
-            << " s (min of t_contact/50, T_bond/50, 0.2 T_Rayleigh; see bondem info); "
-               "lower time.step (or --unsafe-time-step)";
+            << " s is above the limit " << recommended << " s set by " << limit.cause
+            << " (see bondem info); lower time.step (or --unsafe-time-step)";
     throw CaseError(message.str());
   }
   const std::filesystem::path directory =
@@ -555,11 +555,23 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
     write_final_state(last_good, (directory / "last_good_state.csv").string());
     std::ostringstream message;
     message << e.what() << ". Likely cause: ";
-    if (description.time_step > 0.5 * recommended) {
-      message << "time.step = " << description.time_step << " s against the recommended "
-              << recommended << " s; try a smaller step";
+    // Blame the time step only when it is above its limit (--unsafe-time-step).
+    const std::string what = e.what();
+    if (description.time_step > recommended) {
+      message << "time.step = " << description.time_step << " s above its limit " << recommended
+              << " s set by " << limit.cause << "; try a smaller step";
+    } else if (what.find("temperature") != std::string::npos ||
+               what.find("heat step") != std::string::npos) {
+      message << "heat flows too fast for the explicit heat step; lower time.step or check the "
+                 "thermal properties and the laser power";
+    } else if (what.find(" tool '") != std::string::npos) {
+      message
+          << "the tool named above drives particles into each other or a wall faster than "
+             "the contacts push back (time.step is within its limit); slow it or check its path";
     } else {
-      message << "initial overlaps, a stiff material or a wall cutting particles";
+      message << "initial overlaps, a stiff material or a wall cutting particles (time.step is "
+                 "within its limit "
+              << recommended << " s)";
     }
     message << ". Last good state: " << (directory / "last_good_state.csv").string();
     throw BlowUpError(message.str());

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <limits>
 #include <numbers>
 #include <sstream>
@@ -32,8 +33,49 @@ double rayleigh_time(double radius, const Material& material) {
          (0.1631 * material.poisson_ratio + 0.8766);
 }
 
-double recommended_time_step(double contact_time, double bond_period, double rayleigh) {
-  return std::min({contact_time / 50.0, bond_period / 50.0, 0.2 * rayleigh});
+double damped_stability_step(double stiffness, double mass, double damping_ratio) {
+  const double omega = std::sqrt(stiffness / mass);
+  // 2 / (sqrt(1 + xi^2) + xi): no cancellation for large xi, and no overflow up to xi ~ 1e308.
+  return 2.0 / (omega * (std::hypot(1.0, damping_ratio) + damping_ratio));
+}
+
+double damper_time_step(double stiffness, double mass, double damping_ratio) {
+  return damped_stability_step(kPackingModeFactor * stiffness, mass,
+                               std::sqrt(kPackingModeFactor) * damping_ratio);
+}
+
+double hertz_restitution(double damping_ratio) {
+  // Dimensionless eq. 26 (delta in units of L, t of sqrt(m* / (K sqrt L)), K = (4/3) E* sqrt r*,
+  // L chosen so the impact speed is 1): x'' = min(0, -x^(3/2) - 2 sqrt(3/2) xi x^(1/4) x'), the
+  // minimum being the sign rule (a contact never attracts). The rebound speed is e.
+  const double c = 2.0 * std::sqrt(1.5) * damping_ratio;
+  const auto acceleration = [c](double x, double v) {
+    if (x <= 0.0) return 0.0;
+    return std::min(0.0, -x * std::sqrt(x) - c * std::sqrt(std::sqrt(x)) * v);
+  };
+  double x = 0.0;
+  double v = 1.0;
+  double tau = 0.0;
+  // RK4; an undamped impact lasts 3.2 time units. A heavily damped pair creeps out slowly (or
+  // never): past the cap it has lost all but a negligible rebound.
+  constexpr double kCap = 200.0;
+  while (tau < kCap) {
+    const double h = tau < 10.0 ? 1e-4 : 1e-3;
+    const double k1x = v, k1v = acceleration(x, v);
+    const double k2x = v + 0.5 * h * k1v, k2v = acceleration(x + 0.5 * h * k1x, v + 0.5 * h * k1v);
+    const double k3x = v + 0.5 * h * k2v, k3v = acceleration(x + 0.5 * h * k2x, v + 0.5 * h * k2v);
+    const double k4x = v + h * k3v, k4v = acceleration(x + h * k3x, v + h * k3v);
+    x += h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
+    v += h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+    tau += h;
+    if (x <= 0.0 && v < 0.0) return -v;
+  }
+  return 0.0;
+}
+
+double recommended_time_step(double contact_time, double bond_period, double rayleigh,
+                             double damper_step) {
+  return std::min({contact_time / 50.0, bond_period / 50.0, 0.2 * rayleigh, damper_step});
 }
 
 PairReport compute_pair_report(const Case& description, int material_a, double radius_a,
@@ -71,15 +113,26 @@ PairReport compute_pair_report(const Case& description, int material_a, double r
       2.0 * e_star * std::sqrt(r_star * pair.equilibrium_overlap) -
       alpha * pair.adhesion_stiffness * std::pow(pair.equilibrium_overlap, alpha - 1.0);
   // Without bonding there is no bond oscillation to resolve.
-  report.bond_period = description.bond.criterion == BondCriterion::kNever
-                           ? std::numeric_limits<double>::infinity()
-                           : 2.0 * std::numbers::pi * std::sqrt(m_star / report.bond_stiffness);
+  report.bonding = description.bond.criterion != BondCriterion::kNever;
+  report.bond_period = report.bonding
+                           ? 2.0 * std::numbers::pi * std::sqrt(m_star / report.bond_stiffness)
+                           : std::numeric_limits<double>::infinity();
   report.reference_velocity = reference_velocity;
   report.max_overlap = hertz_max_overlap(e_star, r_star, m_star, reference_velocity);
   report.contact_time = hertz_contact_time(e_star, r_star, m_star, reference_velocity);
   report.rayleigh_time = std::min(rayleigh_time(radius_a, a), rayleigh_time(radius_b, b));
+  // Damping drives the overlap less deep than the undamped maximum: its stiffness is the most a
+  // contact at the reference speed reaches.
+  report.contact_stiffness = 2.0 * e_star * std::sqrt(r_star * report.max_overlap);
+  report.contact_damper_step =
+      damper_time_step(report.contact_stiffness, m_star, coefficients.contact_damping);
+  report.bond_damper_step =
+      report.bonding ? damper_time_step(report.bond_stiffness, m_star, coefficients.bond_damping)
+                     : std::numeric_limits<double>::infinity();
+  report.restitution = hertz_restitution(coefficients.contact_damping);
   report.recommended_time_step =
-      recommended_time_step(report.contact_time, report.bond_period, report.rayleigh_time);
+      recommended_time_step(report.contact_time, report.bond_period, report.rayleigh_time,
+                            std::min(report.contact_damper_step, report.bond_damper_step));
   return report;
 }
 
@@ -100,10 +153,77 @@ std::vector<std::string> time_step_warnings(const PairReport& report, double tim
   return warnings;
 }
 
-double reference_impact_speed(const Case& c) {
+double tool_surface_speed(const Body& tool) {
+  const double rim = tool.shape == Body::Shape::kCylinder ? std::abs(tool.spin) * tool.radius : 0.0;
   double fastest = 0.0;
-  for (const ParticleSpec& p : c.particles) fastest = std::max(fastest, p.velocity.norm());
+  for (const MotionKey& key : tool.motion) fastest = std::max(fastest, key.velocity.norm());
+  return fastest + rim;
+}
+
+namespace {
+
+/// Index of the case's fastest particle (0 when none moves).
+std::size_t fastest_particle(const Case& c) {
+  std::size_t fastest = 0;
+  for (std::size_t i = 1; i < c.particles.size(); ++i) {
+    // stableNorm: a speed of 1e300 is found as such, not as inf.
+    if (c.particles[i].velocity.stableNorm() > c.particles[fastest].velocity.stableNorm()) {
+      fastest = i;
+    }
+  }
+  return fastest;
+}
+
+/// A number for messages, six significant digits.
+std::string shortest_number(double value) {
+  std::ostringstream out;
+  out << std::setprecision(6) << value;
+  return out.str();
+}
+
+/// Refuses a reference impact speed that is not finite or beyond the speed of light (no
+/// physical input gives one, and the Hertz quantities of v^2 overflow further up), naming the
+/// particle or tool behind it.
+void require_physical_speed(const Case& c, double speed) {
+  constexpr double kSpeedOfLight = 299792458.0;
+  if (speed <= kSpeedOfLight) return;
+  std::ostringstream message;
+  message << c.source << ": the reference impact speed " << shortest_number(speed)
+          << " m/s is not physical (above the speed of light)";
+  const Body* fastest_tool = nullptr;
+  for (const Body& tool : c.bodies) {
+    if (fastest_tool == nullptr ||
+        !(tool_surface_speed(tool) <= tool_surface_speed(*fastest_tool))) {
+      fastest_tool = &tool;
+    }
+  }
+  const std::size_t i = fastest_particle(c);
+  const double particle_speed = c.particles.empty() ? 0.0 : c.particles[i].velocity.stableNorm();
+  if (fastest_tool != nullptr && !(tool_surface_speed(*fastest_tool) <= particle_speed)) {
+    message << ": tool '" << fastest_tool->name << "' moves at "
+            << shortest_number(tool_surface_speed(*fastest_tool))
+            << " m/s (motion velocity or spin)";
+  } else if (!c.particles.empty() && !(particle_speed <= kSpeedOfLight)) {
+    message << ": particle " << i << " moves at " << shortest_number(particle_speed)
+            << " m/s ('particles." << i << ".velocity' if listed, else its insert block)";
+  } else {
+    message << ": check gravity and the domain";
+  }
+  throw std::invalid_argument(message.str());
+}
+
+/// Keeps the smaller of two limits.
+void tighten(TimeStepLimit& limit, double step, const std::string& cause) {
+  if (step < limit.step || std::isnan(step)) limit = {step, cause};
+}
+
+}  // namespace
+
+double reference_impact_speed(const Case& c) {
+  const double fastest =
+      c.particles.empty() ? 0.0 : c.particles[fastest_particle(c)].velocity.stableNorm();
   double speed = 2.0 * fastest;
+  for (const Body& tool : c.bodies) speed = std::max(speed, 2.0 * tool_surface_speed(tool));
   const double g = c.gravity.norm();
   if (g > 0.0 && !c.particles.empty()) {
     Eigen::Vector3d lo = c.particles.front().position;
@@ -119,27 +239,75 @@ double reference_impact_speed(const Case& c) {
     const double drop = std::abs((hi - lo).dot(c.gravity / g));
     speed = std::max(speed, std::sqrt(2.0 * g * drop));
   }
-  return speed > 0.0 ? speed : 1.0;  // nothing moves yet: a gentle 1 m/s contact as yardstick
+  return speed == 0.0 ? 1.0 : speed;  // nothing moves yet: a gentle 1 m/s contact as yardstick
 }
 
-double case_time_step_limit(const Case& c) {
+TimeStepLimit case_time_step_bound(const Case& c) {
   std::vector<double> smallest(c.materials.size(), 0.0);
+  double smallest_radius = std::numeric_limits<double>::infinity();
   for (const ParticleSpec& p : c.particles) {
     double& r = smallest[static_cast<std::size_t>(p.material)];
     r = r == 0.0 ? p.radius : std::min(r, p.radius);
+    smallest_radius = std::min(smallest_radius, p.radius);
   }
   const double speed = reference_impact_speed(c);
-  double step = std::numeric_limits<double>::infinity();
+  require_physical_speed(c, speed);
+  TimeStepLimit limit{std::numeric_limits<double>::infinity(), "nothing"};
   const std::size_t n = c.materials.size();
+  const auto name_of = [&](std::size_t m) { return c.materials[m].name; };
   for (std::size_t a = 0; a < n; ++a) {
     for (std::size_t b = a; b < n; ++b) {
       if (smallest[a] == 0.0 || smallest[b] == 0.0) continue;
       const PairReport r = compute_pair_report(c, static_cast<int>(a), smallest[a],
                                                static_cast<int>(b), smallest[b], speed);
-      step = std::min(step, r.recommended_time_step);
+      const std::string pair = " of [" + name_of(a) + " " + name_of(b) + "]";
+      tighten(limit, r.contact_time / 50.0,
+              "t_contact/50 of a Hertz impact at " + shortest_number(speed) + " m/s" + pair);
+      tighten(limit, r.bond_period / 50.0, "T_bond/50" + pair);
+      tighten(limit, 0.2 * r.rayleigh_time, "0.2 T_Rayleigh" + pair);
+      tighten(limit, r.contact_damper_step,
+              "the stability of the contact damper (contact.damping_ratio = " +
+                  shortest_number(c.contact_damping) + ")" + pair);
+      tighten(limit, r.bond_damper_step,
+              "the stability of the bond damper (bond.damping_ratio = " +
+                  shortest_number(c.bond.damping_ratio) + ")" + pair);
     }
   }
-  return step;
+  // Walls and tools: a sphere of infinite radius and mass, r* = r and m* = m.
+  const auto surface = [&](int material, const std::string& what) {
+    for (std::size_t a = 0; a < n; ++a) {
+      if (smallest[a] == 0.0) continue;
+      const PairCoefficients coefficients = c.pair_coefficients(static_cast<int>(a), material);
+      const double e_star = coefficients.effective_modulus;
+      const double r = smallest[a];
+      const double m = sphere_mass(r, c.materials[a].density);
+      const double stiffness = 2.0 * e_star * std::sqrt(r * hertz_max_overlap(e_star, r, m, speed));
+      tighten(limit, damper_time_step(stiffness, m, coefficients.contact_damping),
+              "the stability of the contact damper (contact.damping_ratio = " +
+                  shortest_number(c.contact_damping) + ") of [" + name_of(a) + "] on " + what);
+    }
+  };
+  for (const PlaneWall& wall : c.walls) surface(wall.material, "wall '" + wall.name + "'");
+  for (const Body& tool : c.bodies) {
+    surface(tool.material, "tool '" + tool.name + "'");
+    const double tool_speed = tool_surface_speed(tool);
+    if (tool_speed > 0.0 && std::isfinite(smallest_radius)) {
+      tighten(limit, kMaxToolStepFraction * smallest_radius / tool_speed,
+              "tool '" + tool.name + "' at " + shortest_number(tool_speed) +
+                  " m/s moving at most " + shortest_number(kMaxToolStepFraction) +
+                  " of the smallest radius per step");
+    }
+  }
+  if (!(limit.step > 0.0) || std::isnan(limit.step)) {
+    throw std::invalid_argument(c.source + ": the time-step limit (" + limit.cause + ") is " +
+                                shortest_number(limit.step) +
+                                ", not a usable number: check the materials and speeds");
+  }
+  return limit;
+}
+
+double case_time_step_limit(const Case& c) {
+  return case_time_step_bound(c).step;
 }
 
 }  // namespace bondem

@@ -259,15 +259,31 @@ void Stepper::kick_spin(double half_dt) {
 
 std::string Stepper::diagnose_blow_up(bool finite) const {
   const Particles& p = scene_.particles;
+  constexpr int kShownIds = 5;
   std::ostringstream message;
   message << "step " << step_count_ << " (t = " << time_ << " s): ";
   if (!finite) {
-    message << "non-finite position or velocity of particle id";
-    int shown = 0;
-    for (std::size_t i = 0; i < p.size() && shown < 5; ++i) {
-      if (!std::isfinite(p.vx[i] + p.vy[i] + p.vz[i] + p.x[i] + p.y[i] + p.z[i])) {
-        message << (shown++ ? ", " : " ") << p.id[i];
+    // Name the particles and what is not finite about them: motion, or temperature.
+    const auto list_ids = [&](const char* what, auto non_finite) {
+      int shown = 0;
+      std::size_t count = 0;
+      std::ostringstream ids;
+      for (std::size_t i = 0; i < p.size(); ++i) {
+        if (!non_finite(i)) continue;
+        if (shown < kShownIds) ids << (shown++ ? ", " : " ") << p.id[i];
+        ++count;
       }
+      if (count == 0) return false;
+      message << "non-finite " << what << " of " << count << " particle(s), id" << ids.str()
+              << (count > static_cast<std::size_t>(shown) ? ", ..." : "");
+      return true;
+    };
+    const bool motion = list_ids("position or velocity", [&](std::size_t i) {
+      return !std::isfinite(p.vx[i] + p.vy[i] + p.vz[i] + p.x[i] + p.y[i] + p.z[i]);
+    });
+    if (p.thermal()) {
+      if (motion) message << "; ";
+      list_ids("temperature", [&](std::size_t i) { return !std::isfinite(p.temperature[i]); });
     }
     return message.str();
   }
@@ -282,15 +298,40 @@ std::string Stepper::diagnose_blow_up(bool finite) const {
       const double overlap = p.radius[i] + p.radius[j] - d.norm();
       if (overlap > scene_.max_overlap_fraction * std::min(p.radius[i], p.radius[j])) {
         message << "; particle ids " << p.id[i] << " and " << p.id[j];
+        // A tool pressing on either of them is the likely driver: name it too.
+        for (const std::size_t m : {i, j}) {
+          const Eigen::Vector3d centre(p.x[m], p.y[m], p.z[m]);
+          for (const Body& body : scene_.bodies) {
+            if (!surely_apart(body, centre, p.radius[m])) {
+              message << " (id " << p.id[m] << " touched by tool '" << body.name << "')";
+              return message.str();
+            }
+          }
+        }
         return message.str();
       }
     }
   }
+  // A particle in a wall or tool: name the tool first, as a tool pressing a particle into a wall
+  // is the likely driver of both overlaps.
   for (std::size_t i = 0; i < p.size(); ++i) {
+    const double limit = scene_.max_overlap_fraction * p.radius[i];
+    const Eigen::Vector3d centre(p.x[i], p.y[i], p.z[i]);
+    const Body* touching_tool = nullptr;
+    for (const Body& body : scene_.bodies) {
+      if (surely_apart(body, centre, p.radius[i])) continue;
+      touching_tool = &body;
+      if (p.radius[i] - nearest_surface(body, centre).gap > limit) {
+        message << "; particle id " << p.id[i] << " in tool '" << body.name << "' (moving at "
+                << body.velocity.norm() << " m/s)";
+        return message.str();
+      }
+    }
     for (const PlaneWall& wall : scene_.walls) {
-      const double overlap = p.radius[i] - distance_to(wall, p.x[i], p.y[i], p.z[i]);
-      if (overlap > scene_.max_overlap_fraction * p.radius[i]) {
+      if (p.radius[i] - distance_to(wall, p.x[i], p.y[i], p.z[i]) > limit) {
         message << "; particle id " << p.id[i] << " in wall '" << wall.name << "'";
+        if (touching_tool != nullptr)
+          message << ", pressed by tool '" << touching_tool->name << "'";
         return message.str();
       }
     }
