@@ -496,12 +496,13 @@ RadiusDistribution read_radius(const Reader& reader, const YAML::Node& node,
     d.min = get("min", false);
     d.max = get("max", false);
   } else if (kind == "lognormal") {
-    reader.check_keys(node, path,
-                      {"distribution", "median", "sigma", "d10", "d50", "d90", "min", "max"});
+    reader.check_keys(
+        node, path,
+        {"distribution", "median", "sigma", "d10", "d50", "d90", "weighting", "min", "max"});
     d.kind = RadiusDistribution::Kind::kLogNormal;
     if (node["d50"]) {
-      // Sieve data: particle diameters D10 < D50 < D90. For a log-normal, ln D90 - ln D10 spans
-      // 2 z_0.9 = 2.5631 standard deviations of ln r.
+      // Measured particle diameters D10 < D50 < D90, by volume (laser diffraction, sieving: the
+      // default) or by number.
       if (node["median"] || node["sigma"]) {
         reader.fail(node, path, "give either median and sigma or d10, d50 and d90");
       }
@@ -509,9 +510,25 @@ RadiusDistribution read_radius(const Reader& reader, const YAML::Node& node,
       const double d50 = get("d50", true);
       const double d90 = get("d90", true);
       if (!(d10 < d50 && d50 < d90)) reader.fail(node, path, "needs d10 < d50 < d90");
-      d.median = 0.5 * d50;
-      d.sigma = std::log(d90 / d10) / (2.0 * 1.2815515655446004);
+      SizeWeighting weighting = SizeWeighting::kVolume;
+      if (const YAML::Node weight = node["weighting"]) {
+        const std::string name = reader.text(weight, path + ".weighting");
+        if (name == "number") {
+          weighting = SizeWeighting::kNumber;
+        } else if (name != "volume") {
+          reader.fail(weight, path + ".weighting",
+                      "unknown weighting '" + name + "' (volume or number)");
+        }
+      }
+      const RadiusDistribution fitted = lognormal_from_d_values(d10, d50, d90, weighting);
+      d.median = fitted.median;
+      d.sigma = fitted.sigma;
     } else {
+      if (const YAML::Node weight = node["weighting"]) {
+        reader.fail(weight, path + ".weighting",
+                    "only with d10, d50 and d90 (median and sigma are of the radii drawn, by "
+                    "number)");
+      }
       d.median = get("median", true);
       d.sigma = get("sigma", true);
     }

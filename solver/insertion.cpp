@@ -227,6 +227,24 @@ void validate(const RadiusDistribution& d) {
   if (d.max > 0.0 && !(d.min < d.max)) fail("cut-offs need min < max");
 }
 
+RadiusDistribution lognormal_from_d_values(double d10, double d50, double d90,
+                                           SizeWeighting weighting) {
+  if (!(std::isfinite(d10) && std::isfinite(d90) && d10 > 0.0 && d10 < d50 && d50 < d90)) {
+    throw std::invalid_argument("radius distribution: needs 0 < d10 < d50 < d90");
+  }
+  // ln D90 - ln D10 spans 2 z_0.9 standard deviations of ln d (and of ln r).
+  constexpr double kZ90 = 1.2815515655446004;
+  RadiusDistribution d;
+  d.kind = RadiusDistribution::Kind::kLogNormal;
+  d.sigma = std::log(d90 / d10) / (2.0 * kZ90);
+  // The volume-weighted distribution of a log-normal is log-normal with the same σ and its
+  // median shifted by exp(3σ²) (moments of exp(3 ln r)).
+  const double shift =
+      weighting == SizeWeighting::kVolume ? std::exp(-3.0 * d.sigma * d.sigma) : 1.0;
+  d.median = 0.5 * d50 * shift;
+  return d;
+}
+
 double draw_radius(const RadiusDistribution& distribution, Rng& rng) {
   validate(distribution);
   for (int k = 0; k < kMaxRedraws; ++k) {

@@ -58,6 +58,18 @@ struct RadiusDistribution {
   double sigma = 0.0;    ///< kLogNormal: standard deviation of ln r [-]
 };
 
+/// What the D-values of a particle-size measurement count: the number of particles (image
+/// analysis, counting) or their volume, i.e. mass (sieving, laser diffraction).
+enum class SizeWeighting { kNumber, kVolume };
+
+/// Log-normal radius distribution from the diameters D10 < D50 < D90 of a size measurement
+/// (D50: half of the particles, by @p weighting, are smaller). σ = ln(D90/D10) / (2 z_0.9) is the
+/// same for both weightings; the radii drawn are counted by number, so volume-weighted values
+/// are converted by Hatch-Choate: ln(median by number) = ln(D50 by volume) - 3σ². No cut-offs.
+/// Throws std::invalid_argument unless 0 < d10 < d50 < d90, all finite.
+RadiusDistribution lognormal_from_d_values(double d10, double d50, double d90,
+                                           SizeWeighting weighting);
+
 /// Uniform double in [0, 1) from the top 53 bits of one engine output (exact on every platform).
 double uniform01(Rng& rng);
 
