@@ -159,7 +159,8 @@ std::string resume_command(const RunOptions& options, const Case& description,
       continue;
     }
     if (words[k].rfind("--restart=", 0) == 0) continue;
-    command += (command.empty() ? "" : " ") + shell_quoted(words[k]);
+    if (!command.empty()) command += ' ';
+    command += shell_quoted(words[k]);
   }
   return command + " --restart " + shell_quoted(checkpoint_path);
 }

@@ -77,11 +77,26 @@ struct RunResult {
 /// `final_state.csv` (one row per particle sorted by id: id, x, y, z, vx, vy, vz, radius, 17
 /// significant digits) and `checkpoint.bin` (at output.checkpoint_interval and at the end).
 /// With analysis.layer, also `layer.csv` (solid fraction per bin along x) and, always,
-/// `clusters.csv` (bonded agglomerates of two or more particles: size and volume-equivalent
-/// diameter). Progress goes to @p log.
-/// Throws CaseError when the time step exceeds the recommended one or a restart checkpoint does not
-/// fit, RunInterrupted when stopped on request, BlowUpError (after writing `last_good_state.csv`)
-/// when the physics blows up. Every file is written atomically.
+/// `clusters.csv` (bonded clusters: size and volume-equivalent diameter). Progress goes to @p log.
+///
+/// The run owns its output directory. Before step 0 it creates it and writes and removes a probe
+/// file, then removes what an earlier run left: temporaries `<output>.tmp.<pid>` of processes no
+/// longer running, and every file of the names above, `last_good_state.csv` and the VTK series
+/// (`{particles,contacts,walls,tools}.pvd` and `_NNNNNN.vtp`). A restart keeps the checkpoint it
+/// reads and the VTK frames an uninterrupted run has up to the checkpoint's time. Other files stay.
+///
+/// `history.csv` is appended and flushed row by row, so a run can be watched live; a restart
+/// first rewrites it from the checkpoint. Whatever ends the run, it holds every row the run
+/// produced (a blow-up's offending row excluded); a `checkpoint.bin` beside it may be older.
+/// The end-of-run files are written checkpoint first, then `final_state.csv`, `clusters.csv`,
+/// `layer.csv`, which are all removed if one of them fails: none appears without the checkpoint
+/// of its state. Every other file is written atomically.
+///
+/// Throws CaseError (before writing anything) when the time step exceeds its limit, the step
+/// count exceeds kMaxRunSteps, a restart checkpoint does not fit or ends after time.end, or the
+/// output directory cannot be written; RunInterrupted when stopped on request (after writing the
+/// checkpoint and the final state); BlowUpError (after writing `last_good_state.csv`) when the
+/// physics blows up or a history value is not finite.
 RunResult run_case(const Case& description, const RunOptions& options, std::ostream& log);
 
 }  // namespace bondem
