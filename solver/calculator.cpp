@@ -156,7 +156,7 @@ std::vector<std::string> time_step_warnings(const PairReport& report, double tim
 double tool_surface_speed(const Body& tool) {
   const double rim = tool.shape == Body::Shape::kCylinder ? std::abs(tool.spin) * tool.radius : 0.0;
   double fastest = 0.0;
-  for (const MotionKey& key : tool.motion) fastest = std::max(fastest, key.velocity.norm());
+  for (const MotionKey& key : tool.motion) fastest = std::max(fastest, key.velocity.stableNorm());
   return fastest + rim;
 }
 
@@ -181,35 +181,29 @@ std::string shortest_number(double value) {
   return out.str();
 }
 
-/// Refuses a reference impact speed that is not finite or beyond the speed of light (no
-/// physical input gives one, and the Hertz quantities of v^2 overflow further up), naming the
-/// particle or tool behind it.
-void require_physical_speed(const Case& c, double speed) {
+/// Refuses a speed that is not finite or beyond the speed of light (no physical input gives one,
+/// and the Hertz quantities of v^2 overflow further up), naming the particle or tool behind it.
+void require_physical_speeds(const Case& c) {
   constexpr double kSpeedOfLight = 299792458.0;
-  if (speed <= kSpeedOfLight) return;
-  std::ostringstream message;
-  message << c.source << ": the reference impact speed " << shortest_number(speed)
-          << " m/s is not physical (above the speed of light)";
-  const Body* fastest_tool = nullptr;
-  for (const Body& tool : c.bodies) {
-    if (fastest_tool == nullptr ||
-        !(tool_surface_speed(tool) <= tool_surface_speed(*fastest_tool))) {
-      fastest_tool = &tool;
+  const auto refuse = [&](const std::string& what, double speed) {
+    throw std::invalid_argument(c.source + ": " + what + " moves at " + shortest_number(speed) +
+                                " m/s, which is not physical (above the speed of light)");
+  };
+  if (!c.particles.empty()) {
+    const std::size_t i = fastest_particle(c);
+    const double speed = c.particles[i].velocity.stableNorm();
+    if (!(speed <= kSpeedOfLight)) {
+      refuse("particle " + std::to_string(i) + " ('particles." + std::to_string(i) +
+                 ".velocity' if listed, else its insert block)",
+             speed);
     }
   }
-  const std::size_t i = fastest_particle(c);
-  const double particle_speed = c.particles.empty() ? 0.0 : c.particles[i].velocity.stableNorm();
-  if (fastest_tool != nullptr && !(tool_surface_speed(*fastest_tool) <= particle_speed)) {
-    message << ": tool '" << fastest_tool->name << "' moves at "
-            << shortest_number(tool_surface_speed(*fastest_tool))
-            << " m/s (motion velocity or spin)";
-  } else if (!c.particles.empty() && !(particle_speed <= kSpeedOfLight)) {
-    message << ": particle " << i << " moves at " << shortest_number(particle_speed)
-            << " m/s ('particles." << i << ".velocity' if listed, else its insert block)";
-  } else {
-    message << ": check gravity and the domain";
+  for (const Body& tool : c.bodies) {
+    const double speed = tool_surface_speed(tool);
+    if (!(speed <= kSpeedOfLight)) refuse("tool '" + tool.name + "' (motion or spin)", speed);
   }
-  throw std::invalid_argument(message.str());
+  const double fall = reference_impact_speed(c);
+  if (!(fall <= 2.0 * kSpeedOfLight)) refuse("a fall across the domain under gravity", fall);
 }
 
 /// Keeps the smaller of two limits.
@@ -250,8 +244,8 @@ TimeStepLimit case_time_step_bound(const Case& c) {
     r = r == 0.0 ? p.radius : std::min(r, p.radius);
     smallest_radius = std::min(smallest_radius, p.radius);
   }
+  require_physical_speeds(c);
   const double speed = reference_impact_speed(c);
-  require_physical_speed(c, speed);
   TimeStepLimit limit{std::numeric_limits<double>::infinity(), "nothing"};
   const std::size_t n = c.materials.size();
   const auto name_of = [&](std::size_t m) { return c.materials[m].name; };
@@ -301,7 +295,8 @@ TimeStepLimit case_time_step_bound(const Case& c) {
   if (!(limit.step > 0.0) || std::isnan(limit.step)) {
     throw std::invalid_argument(c.source + ": the time-step limit (" + limit.cause + ") is " +
                                 shortest_number(limit.step) +
-                                ", not a usable number: check the materials and speeds");
+                                ", not a usable number: check the materials' density and "
+                                "youngs_modulus, the radii and the damping ratios");
   }
   return limit;
 }
