@@ -150,6 +150,17 @@ std::vector<std::string> time_step_warnings(const PairReport& report, double tim
   };
   check(report.contact_time, "a Hertz impact");
   check(report.bond_period, "a bond oscillation");
+  const auto check_damper = [&](double stable_step, const char* which) {
+    if (time_step <= stable_step) return;
+    std::ostringstream message;
+    message << "time.step = " << time_step << " s is above the stable step of the " << which
+            << " damper, " << stable_step
+            << " s: the damper can amplify motion; recommended time step: "
+            << report.recommended_time_step << " s";
+    warnings.push_back(message.str());
+  };
+  check_damper(report.contact_damper_step, "contact");
+  check_damper(report.bond_damper_step, "bond");
   return warnings;
 }
 

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "io/case_file.hpp"
 #include "solver/calculator.hpp"
@@ -73,11 +74,37 @@ TEST(Calculator, TimeStepRuleAndWarnings) {
   // Hertz contact at 2.6 m/s lasts about 25 us; the paper's 0.5 us step resolves it in ~50 steps.
   EXPECT_NEAR(r.contact_time, 2.54e-5, 0.01e-5);
   EXPECT_DOUBLE_EQ(r.recommended_time_step,
-                   std::min({r.contact_time / 50, r.bond_period / 50, 0.2 * r.rayleigh_time}));
+                   std::min({r.contact_time / 50, r.bond_period / 50, 0.2 * r.rayleigh_time,
+                             r.contact_damper_step, r.bond_damper_step}));
   EXPECT_TRUE(time_step_warnings(r, c.time_step).empty());
   const auto warnings = time_step_warnings(r, 2e-6);  // 13 steps per contact
   ASSERT_FALSE(warnings.empty());
   EXPECT_NE(warnings[0].find("recommended time step"), std::string::npos);
+}
+
+TEST(Calculator, DamperStepsEnterTheRuleAndTheWarnings) {
+  Case c = paper_case();
+  c.contact_damping = 1000.0;
+  const PairReport r = compute_pair_report(c, 0, 1e-3, 0, 1e-3, 2.6);
+  EXPECT_DOUBLE_EQ(r.contact_stiffness,
+                   2.0 * r.effective_modulus * std::sqrt(r.effective_radius * r.max_overlap));
+  EXPECT_DOUBLE_EQ(r.contact_damper_step,
+                   damper_time_step(r.contact_stiffness, r.effective_mass, 1000.0));
+  EXPECT_DOUBLE_EQ(r.recommended_time_step, r.contact_damper_step);
+  const auto warnings = time_step_warnings(r, c.time_step);
+  ASSERT_FALSE(warnings.empty());
+  EXPECT_NE(warnings.back().find("contact damper"), std::string::npos) << warnings.back();
+}
+
+TEST(Calculator, NoBondingNoBondQuantitiesInTheRule) {
+  Case c = paper_case();
+  c.bond.criterion = BondCriterion::kNever;
+  c.bond.damping_ratio = 1e6;  // would set the limit if a bond could form
+  const PairReport r = compute_pair_report(c, 0, 1e-3, 0, 1e-3, 2.6);
+  EXPECT_FALSE(r.bonding);
+  EXPECT_EQ(r.bond_damper_step, std::numeric_limits<double>::infinity());
+  EXPECT_DOUBLE_EQ(r.recommended_time_step,
+                   std::min({r.contact_time / 50, 0.2 * r.rayleigh_time, r.contact_damper_step}));
 }
 
 TEST(Calculator, RejectsUnstableExponent) {
