@@ -30,8 +30,12 @@ double rayleigh_time(double radius, const Material& material);
 /// own bound, dt < 1 / (xi omega), is always the looser one).
 double damped_stability_step(double stiffness, double mass, double damping_ratio);
 
-/// Stiffness and damping of the fastest mode of a packing, as multiples of one contact's: in
-/// 3D at most sum_j (n_j . e)^2 (1 - cos) <= 2 z / 3 = 8 k / m = 4 k / m* for 12 contacts (FCC).
+/// Stiffness and damping per mass of the fastest mode, as multiples of one pair's (k / m*): the
+/// safety factor of the damper limit. Equal spheres with central contacts have modes
+/// omega^2 = (k / m) sum_j (n_j . e)^2 (1 - cos q.r_j) <= (2 k / m) z / 3 = (z / 3) k / m*, which
+/// is 4 k / m* for the densest packing (z = 12); damping has the same structure. It also covers a
+/// pair's tangential spring and damper, whose contact-point mass with rotation is m* / 3.5
+/// (k_t <= k_con: omega^2 up to 3.5 k / m*, damping ratio up to 1.87 xi).
 inline constexpr double kPackingModeFactor = 4.0;
 
 /// The damper's time-step limit: damped_stability_step for the fastest packing mode, whose
