@@ -173,6 +173,22 @@ TEST_F(BadCheckpoint, ForgedHugeArrayIsRefusedBeforeAllocating) {
   EXPECT_EQ(with_valid_checksum(good_), good_);
 }
 
+// Item 10: a checksum-valid checkpoint whose particles name a material the case does not have
+// would index past the material table; it is refused as not fitting the case.
+TEST_F(BadCheckpoint, ForgedMaterialIndexIsRefused) {
+  std::string bytes = good_;
+  constexpr std::size_t particle_count = 8 + 4 + 8 + 9 * 8;
+  std::uint64_t n = 0;
+  std::memcpy(&n, bytes.data() + particle_count, 8);
+  // After the count: the id array (its count, n ids), then the material array's count.
+  const std::size_t first_material = particle_count + 8 + 8 + 8 * n + 8;
+  const std::int32_t forged = 99;
+  std::memcpy(bytes.data() + first_material, &forged, 4);
+  const std::string error = error_with(with_valid_checksum(bytes), short_packing(0.0006));
+  EXPECT_NE(error.find("does not fit the case: it holds material index 99"), std::string::npos)
+      << error;
+}
+
 // Item 10: a directory given as the checkpoint failed with "std::bad_alloc".
 TEST_F(BadCheckpoint, DirectoryIsRefused) {
   try {
