@@ -125,6 +125,34 @@ void keep_last_good(const Particles& from, Particles& to) {
   to.radius = from.radius;
 }
 
+/// What in @p restored does not fit @p scene ("" when all fits): a checkpoint that passes its
+/// checksum and fingerprint may still be forged, and the stepper indexes by these sizes.
+std::string checkpoint_misfit(const Checkpoint& restored, const Scene& scene,
+                              std::size_t materials) {
+  const Particles& p = restored.particles;
+  const Particles& expected = scene.particles;
+  if (p.size() != expected.size()) {
+    return std::to_string(p.size()) + " particles, the case has " + std::to_string(expected.size());
+  }
+  if (p.walls != expected.walls) {
+    return std::to_string(p.walls) + " walls and tools, the case has " +
+           std::to_string(expected.walls);
+  }
+  if (p.thermal() != expected.thermal()) {
+    return p.thermal() ? "temperatures, the case is not thermal" : "no temperatures";
+  }
+  if (restored.stepper.bodies.size() != 6 * scene.bodies.size()) {
+    return "the state of " + std::to_string(restored.stepper.bodies.size() / 6) +
+           " tools, the case has " + std::to_string(scene.bodies.size());
+  }
+  for (const std::int32_t m : p.material) {
+    if (m < 0 || static_cast<std::size_t>(m) >= materials) {
+      return "material index " + std::to_string(m) + " of " + std::to_string(materials);
+    }
+  }
+  return "";
+}
+
 /// @p argument as one shell word: unchanged when it holds only safe characters, else in single
 /// quotes (a quote inside written as '\'').
 std::string shell_quoted(const std::string& argument) {
@@ -439,6 +467,11 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
                       "materials, laws, time step, domain, walls or particle count differ from " +
                       description.source + ")");
     }
+    if (const std::string misfit = checkpoint_misfit(restored, scene, description.materials.size());
+        !misfit.empty()) {
+      throw CaseError(options.restart_path + ": checkpoint does not fit the case: it holds " +
+                      misfit);
+    }
     if (steps <= restored.stepper.step) {
       throw CaseError(description.source + ": 'time.end': " + readable(description.end_time) +
                       " s is not after the time of the checkpoint " + options.restart_path + ", " +
@@ -561,10 +594,10 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
     if (description.time_step > recommended) {
       message << "time.step = " << description.time_step << " s above its limit " << recommended
               << " s set by " << limit.cause << "; try a smaller step";
-    } else if (what.find("heat step") != std::string::npos ||
-               what.find("non-finite temperature") != std::string::npos) {
-      message << "heat flows too fast for the explicit heat step, or an absurd temperature or "
-                 "laser power; lower time.step or check the thermal properties and the laser";
+    } else if (what.find("temperature") != std::string::npos ||
+               what.find("heat step") != std::string::npos) {
+      message << "heat flows too fast for the explicit heat step; lower time.step or check the "
+                 "thermal properties and the laser power";
     } else if (what.find(" tool '") != std::string::npos) {
       message
           << "the tool named above drives particles into each other or a wall faster than "
