@@ -594,10 +594,10 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
     if (description.time_step > recommended) {
       message << "time.step = " << description.time_step << " s above its limit " << recommended
               << " s set by " << limit.cause << "; try a smaller step";
-    } else if (what.find("temperature") != std::string::npos ||
-               what.find("heat step") != std::string::npos) {
-      message << "heat flows too fast for the explicit heat step; lower time.step or check the "
-                 "thermal properties and the laser power";
+    } else if (what.find("heat step") != std::string::npos ||
+               what.find("non-finite temperature") != std::string::npos) {
+      message << "heat flows too fast for the explicit heat step, or an absurd temperature or "
+                 "laser power; lower time.step or check the thermal properties and the laser";
     } else if (what.find(" tool '") != std::string::npos) {
       message
           << "the tool named above drives particles into each other or a wall faster than "
