@@ -62,3 +62,27 @@ string(FIND "${err}" "${expected}" found)
 if(found EQUAL -1)
   message(FATAL_ERROR "the resume hint is not the command line:\n${err}\nexpected:\n${expected}")
 endif()
+
+# Items 4 and 17: a history value that is not finite (the mean of temperatures near the largest
+# double overflows) stops the run as a blow-up, exit 3, without writing the row; the final state
+# and checkpoint of an earlier run in the same directory do not stay beside its history.
+set(blown ${WORK}/blown)
+expect_run(run ${paper} --quiet --output ${blown})
+execute_process(COMMAND ${BONDEM} run ${CASES}/laser_sintering_ci.yaml --quiet --output ${blown}
+                        --set time.end=3e-7 --set thermal.initial_temperature=1e308
+                RESULT_VARIABLE status ERROR_VARIABLE err OUTPUT_VARIABLE out)
+if(NOT status EQUAL 3)
+  message(FATAL_ERROR "expected a blow-up (exit 3), got ${status}: ${err}")
+endif()
+file(READ ${blown}/history.csv history)
+if(history MATCHES "inf|nan")
+  message(FATAL_ERROR "history.csv holds a non-finite value:\n${history}")
+endif()
+foreach(stale final_state.csv checkpoint.bin clusters.csv)
+  if(EXISTS ${blown}/${stale})
+    message(FATAL_ERROR "${stale} of the earlier run stayed beside the blown-up run's history")
+  endif()
+endforeach()
+if(NOT EXISTS ${blown}/last_good_state.csv)
+  message(FATAL_ERROR "the blow-up wrote no last_good_state.csv: ${err}")
+endif()
