@@ -16,6 +16,8 @@
 namespace bondem {
 namespace {
 
+constexpr double kSpeedOfLight = 299792458.0;  ///< [m/s]
+
 /// Where a value came from, so that every message can point at it.
 class Reader {
  public:
@@ -25,9 +27,14 @@ class Reader {
   [[noreturn]] void fail(const YAML::Node& node, const std::string& path,
                          const std::string& what) const {
     std::ostringstream message;
-    const auto set = overrides_.find(path);
+    // The --set that gave this value, or one element of it (a list such as a velocity).
+    auto set = overrides_.find(path);
+    if (set == overrides_.end() && !path.empty()) {
+      set = overrides_.lower_bound(path + ".");
+      if (set != overrides_.end() && set->first.rfind(path + ".", 0) != 0) set = overrides_.end();
+    }
     if (set != overrides_.end()) {
-      message << "--set " << path << "=" << set->second;
+      message << "--set " << set->first << "=" << set->second;
     } else {
       message << source_;
       const YAML::Mark mark = node.Mark();
@@ -133,6 +140,19 @@ class Reader {
     Eigen::Vector3d v;
     for (std::size_t k = 0; k < 3; ++k)
       v[static_cast<Eigen::Index>(k)] = number(node[k], join(path, k));
+    return v;
+  }
+
+  /// A velocity [m/s]: no input of a powder process moves anything near the speed of light, and
+  /// the Hertz quantities of v^2 overflow beyond it.
+  Eigen::Vector3d velocity(const YAML::Node& node, const std::string& path) const {
+    const Eigen::Vector3d v = vector3(node, path);
+    if (!(v.stableNorm() < kSpeedOfLight)) {
+      std::ostringstream what;
+      what << "a speed of " << v.stableNorm()
+           << " m/s is not physical (at or above the speed of light)";
+      fail(node, path, what.str());
+    }
     return v;
   }
 
@@ -397,7 +417,7 @@ Body read_tool(const Reader& reader, const Case& c, const YAML::Node& node, cons
         reader.fail(time, key_path + ".time", "motion keys must be in increasing time");
       }
       key.velocity =
-          reader.vector3(reader.require(motion[k], key_path, "velocity"), key_path + ".velocity");
+          reader.velocity(reader.require(motion[k], key_path, "velocity"), key_path + ".velocity");
       tool.motion.push_back(key);
     }
   }
@@ -715,7 +735,7 @@ void read_insertions(const Reader& reader, Case& c, const YAML::Node& insert,
     } catch (const std::exception& e) {
       reader.fail(body, path, e.what());
     }
-    if (const YAML::Node v = body["velocity"]) velocity = reader.vector3(v, path + ".velocity");
+    if (const YAML::Node v = body["velocity"]) velocity = reader.velocity(v, path + ".velocity");
     const double temperature = particle_temperature(reader, c, body, path);
     if (!added.empty()) entries.push_back({c.particles.size(), path, body});
     for (ParticleSpec& p : added) {
@@ -906,7 +926,7 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
     spec.radius = reader.positive(reader.require(body, path, "radius"), path + ".radius");
     spec.position = reader.vector3(reader.require(body, path, "position"), path + ".position");
     if (const YAML::Node velocity = body["velocity"]) {
-      spec.velocity = reader.vector3(velocity, path + ".velocity");
+      spec.velocity = reader.velocity(velocity, path + ".velocity");
     }
     spec.temperature = particle_temperature(reader, c, body, path);
     c.particles.push_back(spec);

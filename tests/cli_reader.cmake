@@ -61,5 +61,5 @@ expect_bad_input("lattice_over_particle.yaml:28:5: 'insert.0': its particle at [
 # of 10^8 in a small region (which took 15-18 s and 1 GB before it was refused).
 expect_bad_input("'insert.0.spacing': gives" info ${CASES}/bench/peer_lattice.yaml
                  --set insert.0.spacing=1e-9)
-expect_bad_input("powder_bed_packing_ci.yaml:32:5: 'insert.0': random fill: count 100000000 even at the smallest possible radius"
+expect_bad_input("--set insert.0.count=100000000: 'insert.0': random fill: count 100000000 even at the smallest possible radius"
                  info ${CASES}/powder_bed_packing_ci.yaml --set insert.0.count=100000000)

@@ -200,7 +200,7 @@ insert:
   const Case c = parse_case(filled, "case.yaml");
   EXPECT_EQ(c.particles.size(), 2u + 10u * 10u * 3u + 200u);
   std::string e = error_of(filled, {"insert.1.count=100000"});
-  EXPECT_NE(e.find("case.yaml:19:5: 'insert.1': random fill"), std::string::npos) << e;
+  EXPECT_NE(e.find("--set insert.1.count=100000: 'insert.1': random fill"), std::string::npos) << e;
   e = error_of(filled, {"insert.1.radius.sigma=-1"});
   EXPECT_NE(e.find("'insert.1.radius.sigma': must be positive"), std::string::npos) << e;
   e = error_of(filled, {"insert.0.type=hexagonal"});

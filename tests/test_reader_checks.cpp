@@ -89,12 +89,29 @@ TEST(ReaderChecks, MalformedSetPathsNameTheSet) {
 
 // Item 6: one initial-overlap check over all particles, at the run's own limit.
 
+// Issue 12 item 4: a speed of 1e300 m/s made the time-step limit NaN, which switched its check off.
+TEST(ReaderChecks, UnphysicalSpeedIsRefusedNamingTheSetOrTheLine) {
+  const std::string moving =
+      replace(kPair, "position: [0, 0, 0]}", "position: [0, 0, 0], velocity: [1, 0, 0]}");
+  EXPECT_EQ(error_of(moving, {"particles.0.velocity.0=2.9e8"}), "");
+  const std::string by_set = error_of(moving, {"particles.0.velocity.0=1e300"});
+  EXPECT_NE(by_set.find("--set particles.0.velocity.0=1e300: 'particles.0.velocity': a speed of "
+                        "1e+300 m/s is not physical"),
+            std::string::npos)
+      << by_set;
+  const std::string in_file = error_of(
+      replace(kPair, "position: [0, 0, 0]}", "position: [0, 0, 0], velocity: [0, 0, -3e8]}"));
+  EXPECT_NE(in_file.find("case.yaml:6:"), std::string::npos) << in_file;
+  EXPECT_NE(in_file.find("'particles.0.velocity'"), std::string::npos) << in_file;
+}
+
 TEST(ReaderChecks, OverlapsUpToTheRunsLimitAreAcceptedBeyondItRefused) {
   // 0.1 mm of overlap on radii of 1 mm is 0.1 of the smaller radius: within the default 0.25.
   EXPECT_EQ(error_of(kPair, {"particles.1.position.0=0.0019"}), "");
   EXPECT_NE(
       error_of(kPair + "limits: {max_overlap_fraction: 0.05}\n", {"particles.1.position.0=0.0019"})
-          .find("case.yaml:7:5: 'particles.1': overlaps particles.0 by 0.1 of the smaller "
+          .find("--set particles.1.position.0=0.0019: 'particles.1': overlaps particles.0 by 0.1 "
+                "of the smaller "
                 "radius, more than limits.max_overlap_fraction = 0.05"),
       std::string::npos)
       << error_of(kPair + "limits: {max_overlap_fraction: 0.05}\n",
@@ -162,7 +179,8 @@ TEST(ReaderChecks, RandomFillCountThatCannotFitIsRefusedBeforeDrawing) {
   const auto start = std::chrono::steady_clock::now();
   const std::string constant = error_of(fill, {"insert.0.count=100000000"});
   EXPECT_NE(
-      constant.find("case.yaml:9:5: 'insert.0': random fill: count 100000000 even at the smallest "
+      constant.find("--set insert.0.count=100000000: 'insert.0': random fill: count 100000000 even "
+                    "at the smallest "
                     "possible radius: solid fraction"),
       std::string::npos)
       << constant;
