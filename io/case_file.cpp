@@ -172,6 +172,8 @@ class Reader {
   }
 
   const std::string& source() const { return source_; }
+  /// Whether @p path was given by --set.
+  bool was_set(const std::string& path) const { return overrides_.count(path) != 0; }
 
  private:
   std::string source_;
@@ -890,21 +892,11 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
   const YAML::Node end = reader.require(time, "time", "end");
   c.end_time = reader.positive(end, "time.end");
   if (c.end_time < c.time_step) reader.fail(end, "time.end", "is shorter than one time step");
-  // The run's step limit (kMaxRunSteps in io/run.hpp), checked in double: the count of a long
-  // end and a tiny step fits no integer. Blamed on time.step when only that was --set.
-  constexpr double kMaxSteps = 1e12;
+  // Checked in double: the count of a long end and a tiny step fits no integer. Blamed on
+  // time.step when only that was --set.
   if (const double steps = c.end_time / c.time_step; !(steps <= kMaxSteps)) {
-    const auto set_on_command_line = [&](const YAML::Node& node, const std::string& path) {
-      try {
-        reader.fail(node, path, "");
-      } catch (const CaseError& e) {
-        return std::string(e.what()).rfind("--set ", 0) == 0;  // how Reader::fail names a --set
-      }
-      return false;  // not reached: fail() always throws
-    };
     const YAML::Node step = time["step"];
-    const bool blame_step =
-        set_on_command_line(step, "time.step") && !set_on_command_line(end, "time.end");
+    const bool blame_step = reader.was_set("time.step") && !reader.was_set("time.end");
     std::ostringstream what;
     what << "gives " << steps << " steps (time.end " << c.end_time << " s / time.step "
          << c.time_step << " s), more than the limit of " << kMaxSteps << " steps";

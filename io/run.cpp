@@ -433,11 +433,11 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
 
   // In double first: the ratio of a long end and a tiny step does not fit any integer.
   const double step_ratio = description.end_time / description.time_step;
-  if (!(step_ratio <= kMaxRunSteps)) {
+  if (!(step_ratio <= kMaxSteps)) {
     throw CaseError(description.source + ": 'time.end': " + readable(description.end_time) +
                     " s is " + readable(step_ratio) + " steps of time.step " +
                     readable(description.time_step) + " s, more than the limit of " +
-                    readable(kMaxRunSteps) + " steps");
+                    readable(kMaxSteps) + " steps");
   }
   const auto steps = static_cast<std::int64_t>(std::llround(step_ratio));
   // An interval at least as long as the run means "at the end only" (the end is always written);

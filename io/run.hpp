@@ -18,10 +18,6 @@
 
 namespace bondem {
 
-/// Most steps a run may take: beyond, a mistyped time.end or time.step is far likelier than a
-/// real intent (10^12 steps of even one particle would take days). The case reader refuses more.
-inline constexpr double kMaxRunSteps = 1e12;
-
 /// How to run (not what: that is the case).
 struct RunOptions {
   std::string output_directory;         ///< overrides the case's output.directory when not empty
@@ -93,7 +89,7 @@ struct RunResult {
 /// of its state. Every other file is written atomically.
 ///
 /// Throws CaseError (before writing anything) when the time step exceeds its limit, the step
-/// count exceeds kMaxRunSteps, a restart checkpoint does not fit or ends after time.end, or the
+/// count exceeds kMaxSteps, a restart checkpoint does not fit or ends after time.end, or the
 /// output directory cannot be written; RunInterrupted when stopped on request (after writing the
 /// checkpoint and the final state); BlowUpError (after writing `last_good_state.csv`) when the
 /// physics blows up or a history value is not finite.

@@ -18,6 +18,11 @@
 
 namespace bondem {
 
+/// Most steps a run may take: beyond, a mistyped time.end or time.step is far likelier than a
+/// real intent (10^12 steps of even one particle would take days). The reader refuses more; the
+/// run checks again for cases built in code.
+inline constexpr double kMaxSteps = 1e12;
+
 /// Elastic solid of a particle species.
 struct Material {
   std::string name;
