@@ -100,16 +100,6 @@ if(run_leftovers)
   message(FATAL_ERROR "refused runs left output behind: ${run_leftovers}")
 endif()
 
-# Runs bondem with ARGN: it must exit 0; its stdout and stderr go to `out` and `err`.
-function(expect_success)
-  execute_process(COMMAND ${BONDEM} ${ARGN} RESULT_VARIABLE status ERROR_VARIABLE err_text
-                  OUTPUT_VARIABLE out_text)
-  if(NOT status EQUAL 0)
-    message(FATAL_ERROR "expected exit 0 from '${ARGN}', got ${status}: ${err_text}")
-  endif()
-  set(out "${out_text}" PARENT_SCOPE)
-  set(err "${err_text}" PARENT_SCOPE)
-endfunction()
 
 # Fails unless `text` contains `expected`.
 function(expect_text text expected what)

@@ -17,3 +17,14 @@ function(expect_bad_input expected_text)
     message(FATAL_ERROR "'${ARGN}': expected a one-line reason, got: ${err}")
   endif()
 endfunction()
+
+# Runs bondem with ARGN: it must exit 0; its stdout and stderr go to `out` and `err`.
+function(expect_success)
+  execute_process(COMMAND ${BONDEM} ${ARGN} RESULT_VARIABLE status ERROR_VARIABLE err_text
+                  OUTPUT_VARIABLE out_text)
+  if(NOT status EQUAL 0)
+    message(FATAL_ERROR "expected exit 0 from '${ARGN}', got ${status}: ${err_text}")
+  endif()
+  set(out "${out_text}" PARENT_SCOPE)
+  set(err "${err_text}" PARENT_SCOPE)
+endfunction()

@@ -4,15 +4,6 @@ file(REMOVE_RECURSE ${WORK})
 file(MAKE_DIRECTORY ${WORK})
 set(paper ${CASES}/paper_5_1.yaml)
 
-# Runs bondem with ARGN and requires exit status 0.
-function(expect_run)
-  execute_process(COMMAND ${BONDEM} ${ARGN} RESULT_VARIABLE status ERROR_VARIABLE err
-                  OUTPUT_VARIABLE out)
-  if(NOT status EQUAL 0)
-    message(FATAL_ERROR "expected exit 0 from '${ARGN}', got ${status}: ${err}")
-  endif()
-endfunction()
-
 # Issue 12, item 3: step counts that overflowed (`steps = -9223372036854775808`, exit 0) are
 # refused, naming the key that was set and the limit.
 expect_bad_input("--set time.end=1e13: 'time.end': gives 2e+19 steps" run ${paper} --quiet
@@ -23,7 +14,7 @@ expect_bad_input("limit of 1e+12 steps" run ${paper} --quiet --output ${WORK}/st
                  --set time.end=1e13)
 
 # Item 2: a restart whose end is not after the checkpoint printed `steps = -95000` and exit 0.
-expect_run(run ${paper} --quiet --output ${WORK}/first --set time.end=0.002)
+expect_success(run ${paper} --quiet --output ${WORK}/first --set time.end=0.002)
 expect_bad_input("'time.end': 0.001 s is not after the time of the checkpoint" run ${paper}
                  --quiet --output ${WORK}/first --set time.end=0.001
                  --restart ${WORK}/first/checkpoint.bin)
@@ -67,7 +58,7 @@ endif()
 # double overflows) stops the run as a blow-up, exit 3, without writing the row; the final state
 # and checkpoint of an earlier run in the same directory do not stay beside its history.
 set(blown ${WORK}/blown)
-expect_run(run ${paper} --quiet --output ${blown})
+expect_success(run ${paper} --quiet --output ${blown})
 execute_process(COMMAND ${BONDEM} run ${CASES}/laser_sintering_ci.yaml --quiet --output ${blown}
                         --set time.end=3e-7 --set thermal.initial_temperature=1e308
                 RESULT_VARIABLE status ERROR_VARIABLE err OUTPUT_VARIABLE out)

@@ -4,6 +4,7 @@
 
 #include <string>
 
+#include "case_text.hpp"
 #include "io/case_file.hpp"
 #include "io/checkpoint.hpp"
 
@@ -70,21 +71,8 @@ insert:
   - {type: lattice, region: {min: [0.003, 0, 0.0001], max: [0.0034, 0.0004, 0.0002]}, spacing: 0.0001, radius: 4.0e-5, material: ti64}
 )";
 
-/// The CaseError message of parsing @p text with @p overrides ("" when it parses).
-std::string error_of(const std::string& text, const std::vector<std::string>& overrides = {}) {
-  try {
-    parse_case(text, "case.yaml", overrides);
-  } catch (const CaseError& e) {
-    return e.what();
-  }
-  return "";
-}
-
-std::string replace(std::string text, const std::string& from, const std::string& to) {
-  const auto at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  return text.replace(at, from.size(), to);
-}
+using testing::error_of;
+using testing::replace;
 
 TEST(CaseFile, ValidCaseReadsEveryField) {
   const Case c = parse_case(kValid, "case.yaml");

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "case_text.hpp"
 #include "io/case_file.hpp"
 #include "solver/insertion.hpp"
 
@@ -23,22 +24,8 @@ particles:
   - {material: powder, radius: 0.001, position: [0.002, 0, 0]}
 )";
 
-/// The CaseError message of parsing @p text with @p overrides ("" when it parses).
-std::string error_of(const std::string& text, const std::vector<std::string>& overrides = {}) {
-  try {
-    parse_case(text, "case.yaml", overrides);
-  } catch (const CaseError& e) {
-    return e.what();
-  }
-  return "";
-}
-
-std::string replace(std::string text, const std::string& from, const std::string& to) {
-  const std::size_t at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  if (at != std::string::npos) text.replace(at, from.size(), to);
-  return text;
-}
+using testing::error_of;
+using testing::replace;
 
 const std::string kPowder =
     "  powder: {density: 2000, youngs_modulus: 1.0e9, poisson_ratio: 0.0}\n";
