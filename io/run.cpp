@@ -568,7 +568,7 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
         message << "; fastest particle id " << p.id[fastest] << " at "
                 << std::sqrt(fastest_speed_sq) << " m/s";
       }
-      throw BlowUpError(message.str());
+      throw BlowUpError(message.str(), BlowUpCause::kHistory);
     }
     history << row.str();
     append_history(row.str());
@@ -590,25 +590,26 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
     std::ostringstream message;
     message << e.what() << ". Likely cause: ";
     // Blame the time step only when it is above its limit (--unsafe-time-step).
-    const std::string what = e.what();
     if (description.time_step > recommended) {
       message << "time.step = " << description.time_step << " s above its limit " << recommended
               << " s set by " << limit.cause << "; try a smaller step";
-    } else if (what.find("heat step") != std::string::npos ||
-               what.find("non-finite temperature") != std::string::npos) {
+    } else if (e.cause() == BlowUpCause::kHeat) {
       message << "heat flows too fast for the explicit heat step, or an absurd temperature or "
                  "laser power; lower time.step or check the thermal properties and the laser";
-    } else if (what.find(" tool '") != std::string::npos) {
+    } else if (e.cause() == BlowUpCause::kTool) {
       message
           << "the tool named above drives particles into each other or a wall faster than "
              "the contacts push back (time.step is within its limit); slow it or check its path";
+    } else if (e.cause() == BlowUpCause::kHistory) {
+      message << "a total too large for a double: check the initial velocities, temperatures and "
+                 "material properties for absurd values";
     } else {
       message << "initial overlaps, a stiff material or a wall cutting particles (time.step is "
                  "within its limit "
               << recommended << " s)";
     }
     message << ". Last good state: " << (directory / "last_good_state.csv").string();
-    throw BlowUpError(message.str());
+    throw BlowUpError(message.str(), e.cause());
   };
   if (stepper.step_count() == 0) {
     try {

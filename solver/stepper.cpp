@@ -232,7 +232,7 @@ void Stepper::step() {
   bonds_broken_ += static_cast<std::int64_t>(contacts_.bonds_broken);
   time_ = static_cast<double>(++step_count_) * dt;
   if (!finite || contacts_.max_overlap_fraction > scene_.max_overlap_fraction) {
-    throw BlowUpError(diagnose_blow_up(finite));
+    throw diagnose_blow_up(finite);
   }
   if (contacts_.thermal_step_ratio > 1.0) {
     std::ostringstream message;
@@ -241,7 +241,7 @@ void Stepper::step() {
             << contacts_.thermal_step_ratio << " > 1 for some particle; reduce time.step to "
             << dt / contacts_.thermal_step_ratio
             << " s or below (or raise specific_heat, lower thermal_conductivity)";
-    throw BlowUpError(message.str());
+    throw BlowUpError(message.str(), BlowUpCause::kHeat);
   }
 }
 
@@ -257,7 +257,7 @@ void Stepper::kick_spin(double half_dt) {
   }
 }
 
-std::string Stepper::diagnose_blow_up(bool finite) const {
+BlowUpError Stepper::diagnose_blow_up(bool finite) const {
   const Particles& p = scene_.particles;
   constexpr int kShownIds = 5;
   std::ostringstream message;
@@ -283,9 +283,11 @@ std::string Stepper::diagnose_blow_up(bool finite) const {
     });
     if (p.thermal()) {
       if (motion) message << "; ";
-      list_ids("temperature", [&](std::size_t i) { return !std::isfinite(p.temperature[i]); });
+      const bool heat =
+          list_ids("temperature", [&](std::size_t i) { return !std::isfinite(p.temperature[i]); });
+      if (heat && !motion) return BlowUpError(message.str(), BlowUpCause::kHeat);
     }
-    return message.str();
+    return BlowUpError(message.str());
   }
   message << "an overlap exceeds " << scene_.max_overlap_fraction
           << " of the smaller radius (largest: " << contacts_.max_overlap_fraction << ")";
@@ -304,11 +306,11 @@ std::string Stepper::diagnose_blow_up(bool finite) const {
           for (const Body& body : scene_.bodies) {
             if (!surely_apart(body, centre, p.radius[m])) {
               message << " (id " << p.id[m] << " touched by tool '" << body.name << "')";
-              return message.str();
+              return BlowUpError(message.str(), BlowUpCause::kTool);
             }
           }
         }
-        return message.str();
+        return BlowUpError(message.str());
       }
     }
   }
@@ -324,19 +326,19 @@ std::string Stepper::diagnose_blow_up(bool finite) const {
       if (p.radius[i] - nearest_surface(body, centre).gap > limit) {
         message << "; particle id " << p.id[i] << " in tool '" << body.name << "' (moving at "
                 << body.velocity.norm() << " m/s)";
-        return message.str();
+        return BlowUpError(message.str(), BlowUpCause::kTool);
       }
     }
     for (const PlaneWall& wall : scene_.walls) {
       if (p.radius[i] - distance_to(wall, p.x[i], p.y[i], p.z[i]) > limit) {
         message << "; particle id " << p.id[i] << " in wall '" << wall.name << "'";
-        if (touching_tool != nullptr)
-          message << ", pressed by tool '" << touching_tool->name << "'";
-        return message.str();
+        if (touching_tool == nullptr) return BlowUpError(message.str());
+        message << ", pressed by tool '" << touching_tool->name << "'";
+        return BlowUpError(message.str(), BlowUpCause::kTool);
       }
     }
   }
-  return message.str();
+  return BlowUpError(message.str());
 }
 
 StepperState Stepper::save_state() const {

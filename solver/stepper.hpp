@@ -14,10 +14,24 @@
 
 namespace bondem {
 
+/// What a blow-up is attributed to, so that the advice printed with it can fit.
+enum class BlowUpCause {
+  kContacts,  ///< overlaps or non-finite motion with no tool involved
+  kTool,      ///< a particle driven into another, a wall or the tool itself by a moving tool
+  kHeat,      ///< the explicit heat step, or a non-finite temperature
+  kHistory,   ///< a non-finite total (energy, load) while every particle value was finite
+};
+
 /// A run that left the physics: non-finite values or an overlap beyond the scene's limit.
 class BlowUpError : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit BlowUpError(const std::string& what, BlowUpCause cause = BlowUpCause::kContacts)
+      : std::runtime_error(what), cause_(cause) {}
+  /// What the blow-up is attributed to.
+  BlowUpCause cause() const { return cause_; }
+
+ private:
+  BlowUpCause cause_;
 };
 
 /// What a pair carries from step to step, keyed by ids: its tangential spring (the elongation
@@ -99,7 +113,7 @@ class Stepper {
   void kick_spin(double half_dt);
   std::vector<SlipRecord> collect_slips() const;
   void apply_slips(std::vector<SlipRecord> slips);
-  std::string diagnose_blow_up(bool finite) const;
+  BlowUpError diagnose_blow_up(bool finite) const;
   template <bool kFriction, class Adhesion>
   ContactSummary dispatch_criterion(Adhesion adhesion);
 

@@ -204,6 +204,7 @@ TEST(BlowUp, NonFiniteTemperatureNamesTheParticles) {
   } catch (const BlowUpError& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find("non-finite temperature of"), std::string::npos) << what;
+    EXPECT_EQ(e.cause(), BlowUpCause::kHeat);  // the run's advice then points at the heat step
     // The ids follow "id": at least one digit.
     const std::size_t at = what.find("), id ");
     ASSERT_NE(at, std::string::npos) << what;
