@@ -25,6 +25,7 @@
 namespace {
 
 using bondem::Case;
+using bondem::kSpeedOfLight;
 
 /// Exit status for bad input of any kind (case file, options, values).
 constexpr int kBadInput = 2;
@@ -157,8 +158,9 @@ std::vector<double> parse_range(const std::string& text, std::size_t parts, cons
     throw UsageError(std::string(option) + " " + text + ": expected " +
                      (parts == 3 ? "V0:V1:N" : "V0:V1"));
   }
-  if (!(values[0] > 0.0 && values[1] > values[0])) {
-    throw UsageError(std::string(option) + " " + text + ": need 0 < V0 < V1");
+  if (!(values[0] > 0.0 && values[1] > values[0] && values[1] < kSpeedOfLight)) {
+    throw UsageError(std::string(option) + " " + text +
+                     ": need 0 < V0 < V1 below the speed of light");
   }
   return values;
 }
@@ -192,6 +194,10 @@ int run_collide(const CollideOptions& o) {
   const int modes =
       (o.velocity ? 1 : 0) + (o.sweep.empty() ? 0 : 1) + (o.threshold.empty() ? 0 : 1);
   if (modes != 1) throw UsageError("collide: give exactly one of --velocity, --sweep, --threshold");
+  if (o.velocity && !(*o.velocity > 0.0 && *o.velocity < kSpeedOfLight)) {
+    throw UsageError("--velocity " + json_number(*o.velocity) +
+                     ": need a positive speed below the speed of light");
+  }
 
   if (!o.sweep.empty()) {
     if (o.out_path.empty()) throw UsageError("collide --sweep needs --out FILE.csv");
@@ -343,8 +349,7 @@ int run_run(const RunCommand& o) {
   std::cout << "output_directory = " << directory << "\n"
             << "particles = " << r.particles << "\n"
             << "steps = " << r.steps << "\n"
-            << "threads = " << (r.particles >= bondem::kMinParallelParticles ? r.threads : 1)
-            << "\n"
+            << "threads = " << threads_in_use(r.particles) << "\n"
             << "wall_time = " << r.wall_seconds << " s\n"
             << "particle_steps_per_second = " << r.particle_steps_per_second << "\n"
             << "neighbor_builds = " << r.neighbor_builds << "\n"

@@ -16,8 +16,6 @@
 namespace bondem {
 namespace {
 
-constexpr double kSpeedOfLight = 299792458.0;  ///< [m/s]
-
 /// Where a value came from, so that every message can point at it.
 class Reader {
  public:

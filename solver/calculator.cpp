@@ -195,7 +195,6 @@ std::string shortest_number(double value) {
 /// Refuses a speed that is not finite or beyond the speed of light (no physical input gives one,
 /// and the Hertz quantities of v^2 overflow further up), naming the particle or tool behind it.
 void require_physical_speeds(const Case& c) {
-  constexpr double kSpeedOfLight = 299792458.0;
   const auto refuse = [&](const std::string& what, double speed) {
     throw std::invalid_argument(c.source + ": " + what + " moves at " + shortest_number(speed) +
                                 " m/s, which is not physical (above the speed of light)");

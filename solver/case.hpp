@@ -23,6 +23,10 @@ namespace bondem {
 /// run checks again for cases built in code.
 inline constexpr double kMaxSteps = 1e12;
 
+/// [m/s]. Speeds at or above it are refused: no powder process comes near it, and the Hertz
+/// quantities of v^2 overflow beyond it.
+inline constexpr double kSpeedOfLight = 299792458.0;
+
 /// Elastic solid of a particle species.
 struct Material {
   std::string name;

@@ -24,6 +24,14 @@ expect_bad_input("exactly one of" collide ${CASES}/paper_5_1.yaml)
 expect_bad_input("need 0 < V0 < V1" collide ${CASES}/paper_5_1.yaml --sweep 3:1:4
                  --out ${WORK}/sweep.csv)
 expect_bad_input("--velocity" collide ${CASES}/paper_5_1.yaml --velocity fast)
+# A non-finite speed ran as a collision at 0 m/s (--velocity 1e300) or failed with a message about
+# radii (inf, nan).
+foreach(speed inf nan 1e300)
+  expect_bad_input("--velocity ${speed}: need a positive speed below the speed of light" collide
+                   ${CASES}/paper_5_1.yaml --velocity ${speed})
+endforeach()
+expect_bad_input("below the speed of light" collide ${CASES}/paper_5_1.yaml --sweep 1:inf:3
+                 --out ${WORK}/sweep_inf.csv)
 # A run that fails part-way must not leave a truncated file.
 expect_bad_input("positive" collide ${CASES}/paper_5_1.yaml --velocity -1
                  --trace ${WORK}/trace.csv)
