@@ -26,7 +26,7 @@ expect_bad_input("need 0 < V0 < V1" collide ${CASES}/paper_5_1.yaml --sweep 3:1:
 expect_bad_input("--velocity" collide ${CASES}/paper_5_1.yaml --velocity fast)
 # A non-finite speed ran as a collision at 0 m/s (--velocity 1e300) or failed with a message about
 # radii (inf, nan).
-foreach(speed inf nan 1e300)
+foreach(speed inf nan 1e+300)
   expect_bad_input("--velocity ${speed}: need a positive speed below the speed of light" collide
                    ${CASES}/paper_5_1.yaml --velocity ${speed})
 endforeach()
