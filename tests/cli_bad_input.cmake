@@ -125,10 +125,10 @@ expect_text("${out}" "[powder powder]" "info --set first")
 expect_success(collide --set time.end=1e-6 ${CASES}/paper_5_1.yaml --velocity 1)
 expect_text("${out}" "restitution = " "collide --set first")
 
-# The banner and the threads line report the threads that run: below 2048 particles the loops
+# The banner and the threads line report the threads that run: below 1024 particles the loops
 # run serially whatever --threads says; above, the team asked for.
 expect_success(run ${CASES}/paper_5_1.yaml --threads 2 --set time.end=1e-6 --output ${WORK}/two)
-expect_text("${err}" "2 particles, 1 thread (below 2048 particles" "serial banner")
+expect_text("${err}" "2 particles, 1 thread (below 1024 particles" "serial banner")
 expect_text("${out}" "threads = 1\n" "serial threads line")
 expect_success(run ${CASES}/powder_bed_packing_ci.yaml --threads 2 --set insert.0.count=2100
                --set time.end=3e-6 --output ${WORK}/many)
