@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
-# The whole test suite from a clean checkout: install what is missing, build, run ctest.
+# The whole test suite from a clean checkout: install what is missing, check the formatting,
+# build, run ctest.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install-deps.sh
+scripts/check-format.sh
 scripts/build.sh
 ctest --preset release -j "$(nproc)"

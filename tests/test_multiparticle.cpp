@@ -7,11 +7,11 @@
 #include <fstream>
 #include <sstream>
 
+#include "all_pairs.hpp"
 #include "io/case_file.hpp"
 #include "io/run.hpp"
 #include "run_helpers.hpp"
 #include "scene_builders.hpp"
-#include "solver/neighbors.hpp"
 #include "solver/scene.hpp"
 #include "solver/stepper.hpp"
 

@@ -5,8 +5,8 @@
 
 #include <set>
 
+#include "all_pairs.hpp"
 #include "scene_builders.hpp"
-#include "solver/neighbors.hpp"
 #include "solver/scene.hpp"
 #include "solver/stepper.hpp"
 

@@ -1,6 +1,7 @@
 #pragma once
-/// @file neighbors.hpp
-/// All-pairs search: exact and O(N^2), the oracle against which the cell-list search is tested.
+/// @file all_pairs.hpp
+/// All-pairs search: exact and O(N^2), the oracle against which the cell-list search is tested
+/// (tests only).
 
 #include <cmath>
 #include <cstdint>
