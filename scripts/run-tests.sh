@@ -7,3 +7,7 @@ scripts/install-deps.sh
 scripts/check-format.sh
 scripts/build.sh
 ctest --preset release -j "$(nproc)"
+# The unit tests once more under the address and undefined-behaviour sanitizers.
+cmake --preset asan >/dev/null
+cmake --build --preset asan -j "$(nproc)" --target bondem_unit_tests
+ctest --preset asan -L unit -j "$(nproc)"
