@@ -77,13 +77,11 @@ std::string history_header(const Scene& scene) {
 std::vector<int> bond_counts(const Particles& p, const Stepper& stepper) {
   std::vector<int> counts(p.size(), 0);
   const NeighborList& list = stepper.neighbors();
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    for (std::uint32_t k = list.row_begin[i]; k < list.row_begin[i + 1]; ++k) {
-      if (stepper.pair_forces().bonded[k] == 0) continue;
-      ++counts[i];
-      ++counts[list.second[k]];
-    }
-  }
+  list.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
+    if (stepper.pair_forces().bonded[k] == 0) return;
+    ++counts[i];
+    ++counts[j];
+  });
   return counts;
 }
 
@@ -375,26 +373,23 @@ class VtkObserver {
     coordination_.assign(p.size(), 0.0);
     bond_count_.assign(p.size(), 0.0);
     contacts_.clear();
-    for (std::size_t i = 0; i < p.size(); ++i) {
-      for (std::uint32_t k = list.row_begin[i]; k < list.row_begin[i + 1]; ++k) {
-        const std::size_t j = list.second[k];
-        const Eigen::Vector3d& shift = list.shifts[list.image[k]];
-        const Eigen::Vector3d first(p.x[i], p.y[i], p.z[i]);
-        const Eigen::Vector3d second =
-            Eigen::Vector3d(p.x[j], p.y[j], p.z[j]) + shift;  // the image seen from i
-        const Eigen::Vector3d d = second - first;
-        const double overlap = p.radius[i] + p.radius[j] - d.norm();
-        if (overlap <= 0.0) continue;
-        const Eigen::Vector3d force(forces.fx[k], forces.fy[k], forces.fz[k]);
-        const bool bonded = forces.bonded[k] != 0;
-        contacts_.push_back(
-            {p.id[i], p.id[j], first, second, overlap, force.dot(d.normalized()), bonded});
-        coordination_[i] += 1.0;
-        coordination_[j] += 1.0;
-        bond_count_[i] += bonded ? 1.0 : 0.0;
-        bond_count_[j] += bonded ? 1.0 : 0.0;
-      }
-    }
+    list.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
+      // The end points are written to the file: the image of j is formed as a point first.
+      const Eigen::Vector3d first(p.x[i], p.y[i], p.z[i]);
+      const Eigen::Vector3d second =
+          Eigen::Vector3d(p.x[j], p.y[j], p.z[j]) + list.shifts[list.image[k]];
+      const Eigen::Vector3d d = second - first;
+      const double overlap = p.radius[i] + p.radius[j] - d.norm();
+      if (overlap <= 0.0) return;
+      const Eigen::Vector3d force(forces.fx[k], forces.fy[k], forces.fz[k]);
+      const bool bonded = forces.bonded[k] != 0;
+      contacts_.push_back(
+          {p.id[i], p.id[j], first, second, overlap, force.dot(d.normalized()), bonded});
+      coordination_[i] += 1.0;
+      coordination_[j] += 1.0;
+      bond_count_[i] += bonded ? 1.0 : 0.0;
+      bond_count_[j] += bonded ? 1.0 : 0.0;
+    });
     std::vector<VtkSeriesWriter::ScalarField> scalars{{"coordination", &coordination_},
                                                       {"bond_count", &bond_count_}};
     if (p.thermal()) {
@@ -683,13 +678,11 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
   const Particles& p = scene.particles;
   const NeighborList& list = stepper.neighbors();
   std::vector<std::pair<std::uint32_t, std::uint32_t>> bonded;
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    for (std::uint32_t k = list.row_begin[i]; k < list.row_begin[i + 1]; ++k) {
-      if (stepper.pair_forces().bonded[k] != 0) {
-        bonded.emplace_back(static_cast<std::uint32_t>(i), list.second[k]);
-      }
+  list.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
+    if (stepper.pair_forces().bonded[k] != 0) {
+      bonded.emplace_back(static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j));
     }
-  }
+  });
   const ClusterReport clusters = find_clusters(p, bonded);
   std::vector<double> primary, agglomerates;
   for (const double r : p.radius) primary.push_back(2.0 * r);

@@ -74,18 +74,12 @@ PackingReport analyse_packing(const Particles& p, const NeighborList& list, cons
                               const Domain& domain) {
   const std::size_t n = p.size();
   std::vector<int> contacts(n, 0);
-  for (std::size_t i = 0; i < n; ++i) {
-    for (std::uint32_t k = list.row_begin[i]; k < list.row_begin[i + 1]; ++k) {
-      const std::size_t j = list.second[k];
-      const Eigen::Vector3d& shift = list.shifts[list.image[k]];
-      const Eigen::Vector3d d(p.x[j] - p.x[i] + shift.x(), p.y[j] - p.y[i] + shift.y(),
-                              p.z[j] - p.z[i] + shift.z());
-      if (d.norm() < p.radius[i] + p.radius[j]) {
-        ++contacts[i];
-        ++contacts[j];
-      }
+  list.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
+    if (list.separation(p, i, j, k).norm() < p.radius[i] + p.radius[j]) {
+      ++contacts[i];
+      ++contacts[j];
     }
-  }
+  });
   // Sum in id order, so that the result does not depend on how the particles are stored.
   std::vector<std::size_t> by_id(n);
   std::iota(by_id.begin(), by_id.end(), std::size_t{0});

@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
+#include <type_traits>
 #include <vector>
 
 #include "geometry/domain.hpp"
@@ -40,6 +41,32 @@ class NeighborList {
 
   /// Number of candidate pairs.
   std::size_t pair_count() const { return second.size(); }
+
+  /// Calls @p visit(i, j, k) for every pair in list order (rows by i, then k), serially; k
+  /// indexes the per-pair arrays. A visitor that returns bool stops the walk by returning false.
+  template <class Visit>
+  void for_each_pair(Visit&& visit) const {
+    const std::size_t rows = row_begin.empty() ? 0 : row_begin.size() - 1;
+    for (std::size_t i = 0; i < rows; ++i) {
+      for (std::uint32_t k = row_begin[i]; k < row_begin[i + 1]; ++k) {
+        const std::size_t j = second[k];
+        if constexpr (std::is_same_v<
+                          std::invoke_result_t<Visit&, std::size_t, std::size_t, std::uint32_t>,
+                          bool>) {
+          if (!visit(i, j, k)) return;
+        } else {
+          visit(i, j, k);
+        }
+      }
+    }
+  }
+
+  /// x_j - x_i of pair k, with the periodic image of j that the list sees from i.
+  Eigen::Vector3d separation(const Particles& p, std::size_t i, std::size_t j,
+                             std::uint32_t k) const {
+    const Eigen::Vector3d& s = shifts[image[k]];
+    return {p.x[j] - p.x[i] + s.x(), p.y[j] - p.y[i] + s.y(), p.z[j] - p.z[i] + s.z()};
+  }
 
   std::vector<std::uint32_t>
       row_begin;  ///< size n + 1: pairs of particle i are [row_begin[i], row_begin[i+1])

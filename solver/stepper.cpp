@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -121,20 +122,17 @@ std::vector<SlipRecord> Stepper::collect_slips() const {
   std::vector<SlipRecord> slips;
   const Particles& p = scene_.particles;
   const bool springs = scene_.friction;
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    for (std::uint32_t k = list_.row_begin[i]; k < list_.row_begin[i + 1]; ++k) {
-      const std::uint8_t bonded = pair_forces_.bonded[k];
-      const bool loaded =
-          springs && (history_.sx[k] != 0.0 || history_.sy[k] != 0.0 || history_.sz[k] != 0.0);
-      if (!loaded && bonded == 0) continue;
-      if (springs) {
-        slips.push_back({p.id[i], p.id[list_.second[k]], history_.sx[k], history_.sy[k],
-                         history_.sz[k], bonded});
-      } else {
-        slips.push_back({p.id[i], p.id[list_.second[k]], 0.0, 0.0, 0.0, bonded});
-      }
+  list_.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
+    const std::uint8_t bonded = pair_forces_.bonded[k];
+    const bool loaded =
+        springs && (history_.sx[k] != 0.0 || history_.sy[k] != 0.0 || history_.sz[k] != 0.0);
+    if (!loaded && bonded == 0) return;
+    if (springs) {
+      slips.push_back({p.id[i], p.id[j], history_.sx[k], history_.sy[k], history_.sz[k], bonded});
+    } else {
+      slips.push_back({p.id[i], p.id[j], 0.0, 0.0, 0.0, bonded});
     }
-  }
+  });
   return slips;
 }
 
@@ -156,21 +154,19 @@ void Stepper::apply_slips(std::vector<SlipRecord> slips) {
     return key(l.first_id, l.second_id) < key(r.first_id, r.second_id);
   });
   const Particles& p = scene_.particles;
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    for (std::uint32_t k = list_.row_begin[i]; k < list_.row_begin[i + 1]; ++k) {
-      const auto wanted = key(p.id[i], p.id[list_.second[k]]);
-      const auto found = std::lower_bound(
-          slips.begin(), slips.end(), wanted,
-          [&](const SlipRecord& r, const auto& w) { return key(r.first_id, r.second_id) < w; });
-      if (found == slips.end() || key(found->first_id, found->second_id) != wanted) continue;
-      pair_forces_.bonded[k] = found->bonded;
-      if (!scene_.friction) continue;
-      const double sign = found->first_id == p.id[i] ? 1.0 : -1.0;
-      history_.sx[k] = sign * found->sx;
-      history_.sy[k] = sign * found->sy;
-      history_.sz[k] = sign * found->sz;
-    }
-  }
+  list_.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
+    const auto wanted = key(p.id[i], p.id[j]);
+    const auto found = std::lower_bound(
+        slips.begin(), slips.end(), wanted,
+        [&](const SlipRecord& r, const auto& w) { return key(r.first_id, r.second_id) < w; });
+    if (found == slips.end() || key(found->first_id, found->second_id) != wanted) return;
+    pair_forces_.bonded[k] = found->bonded;
+    if (!scene_.friction) return;
+    const double sign = found->first_id == p.id[i] ? 1.0 : -1.0;
+    history_.sx[k] = sign * found->sx;
+    history_.sy[k] = sign * found->sy;
+    history_.sz[k] = sign * found->sz;
+  });
 }
 
 void Stepper::step() {
@@ -291,28 +287,29 @@ BlowUpError Stepper::diagnose_blow_up(bool finite) const {
   }
   message << "an overlap exceeds " << scene_.max_overlap_fraction
           << " of the smaller radius (largest: " << contacts_.max_overlap_fraction << ")";
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    for (std::uint32_t k = list_.row_begin[i]; k < list_.row_begin[i + 1]; ++k) {
-      const std::size_t j = list_.second[k];
-      const Eigen::Vector3d& s = list_.shifts[list_.image[k]];
-      const Eigen::Vector3d d(p.x[j] - p.x[i] + s.x(), p.y[j] - p.y[i] + s.y(),
-                              p.z[j] - p.z[i] + s.z());
-      const double overlap = p.radius[i] + p.radius[j] - d.norm();
-      if (overlap > scene_.max_overlap_fraction * std::min(p.radius[i], p.radius[j])) {
-        message << "; particle ids " << p.id[i] << " and " << p.id[j];
-        // A tool pressing on either of them is the likely driver: name it too.
-        for (const std::size_t m : {i, j}) {
-          const Eigen::Vector3d centre(p.x[m], p.y[m], p.z[m]);
-          for (const Body& body : scene_.bodies) {
-            if (!surely_apart(body, centre, p.radius[m])) {
-              message << " (id " << p.id[m] << " touched by tool '" << body.name << "')";
-              return BlowUpError(message.str(), BlowUpCause::kTool);
-            }
-          }
+  // The first pair past the limit, and a tool touching either particle (the likely driver).
+  std::optional<std::pair<std::size_t, std::size_t>> deepest;
+  list_.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
+    const double overlap = p.radius[i] + p.radius[j] - list_.separation(p, i, j, k).norm();
+    if (overlap > scene_.max_overlap_fraction * std::min(p.radius[i], p.radius[j])) {
+      deepest.emplace(i, j);
+      return false;
+    }
+    return true;
+  });
+  if (deepest) {
+    const auto [i, j] = *deepest;
+    message << "; particle ids " << p.id[i] << " and " << p.id[j];
+    for (const std::size_t m : {i, j}) {
+      const Eigen::Vector3d centre(p.x[m], p.y[m], p.z[m]);
+      for (const Body& body : scene_.bodies) {
+        if (!surely_apart(body, centre, p.radius[m])) {
+          message << " (id " << p.id[m] << " touched by tool '" << body.name << "')";
+          return BlowUpError(message.str(), BlowUpCause::kTool);
         }
-        return BlowUpError(message.str());
       }
     }
+    return BlowUpError(message.str());
   }
   // A particle in a wall or tool: name the tool first, as a tool pressing a particle into a wall
   // is the likely driver of both overlaps.

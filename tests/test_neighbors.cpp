@@ -20,22 +20,18 @@ PairSet listed_contacts(const Particles& p, const NeighborList& list, double ski
                         const Domain& domain) {
   PairSet out;
   const Eigen::Vector3d length = domain.length();
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    for (std::uint32_t k = list.row_begin[i]; k < list.row_begin[i + 1]; ++k) {
-      const std::size_t j = list.second[k];
-      const Eigen::Vector3d& s = list.shifts[list.image[k]];
-      Eigen::Vector3d d(p.x[j] - p.x[i] + s.x(), p.y[j] - p.y[i] + s.y(), p.z[j] - p.z[i] + s.z());
-      // The stored image must be the minimum image.
-      for (int a = 0; a < 3; ++a) {
-        if (domain.periodic[a]) {
-          EXPECT_LE(std::abs(d[a]), 0.5 * length[a]);
-        }
-      }
-      if (d.norm() < p.radius[i] + p.radius[j] + skin_of_interest) {
-        out.insert(std::minmax(p.id[i], p.id[j]));
+  list.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
+    const Eigen::Vector3d d = list.separation(p, i, j, k);
+    // The stored image must be the minimum image.
+    for (int a = 0; a < 3; ++a) {
+      if (domain.periodic[a]) {
+        EXPECT_LE(std::abs(d[a]), 0.5 * length[a]);
       }
     }
-  }
+    if (d.norm() < p.radius[i] + p.radius[j] + skin_of_interest) {
+      out.insert(std::minmax(p.id[i], p.id[j]));
+    }
+  });
   return out;
 }
 

@@ -228,14 +228,12 @@ std::set<std::pair<std::int64_t, std::int64_t>> contact_pairs(const Scene& scene
   std::set<std::pair<std::int64_t, std::int64_t>> pairs;
   const Particles& p = scene.particles;
   const NeighborList& list = stepper.neighbors();
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    for (std::uint32_t k = list.row_begin[i]; k < list.row_begin[i + 1]; ++k) {
-      if (!(stepper.pair_forces().conductance[k] > 0.0)) continue;
-      const std::int64_t a = p.id[i];
-      const std::int64_t b = p.id[list.second[k]];
-      pairs.emplace(std::min(a, b), std::max(a, b));
-    }
-  }
+  list.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
+    if (!(stepper.pair_forces().conductance[k] > 0.0)) return;
+    const std::int64_t a = p.id[i];
+    const std::int64_t b = p.id[j];
+    pairs.emplace(std::min(a, b), std::max(a, b));
+  });
   return pairs;
 }
 
