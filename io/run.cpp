@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <numeric>
 #include <optional>
@@ -59,17 +60,57 @@ std::string history_without_end_row(const std::string& history, std::int64_t ste
   return row_time == time ? history.substr(0, last_row + 1) : history;
 }
 
-/// Columns of history.csv; each wall and tool adds the force the particles exert on it.
-std::string history_header(const Scene& scene) {
-  std::string header =
-      "time,kinetic_energy,rotational_energy,contacts,bonds,bonds_formed,bonds_broken,"
-      "wall_contacts,max_overlap";
-  if (scene.particles.thermal()) header += ",max_temperature,mean_temperature,laser_energy";
-  const auto add_load = [&](const std::string& name) {
-    for (const char* axis : {"_x", "_y", "_z"}) header += ",load_" + name + axis;
-  };
-  for (const PlaneWall& wall : scene.walls) add_load(wall.name);
-  for (const Body& body : scene.bodies) add_load(body.name);
+/// One column of history.csv: its name, its unit, and how to read it from the run.
+struct HistoryColumn {
+  std::string name;
+  const char* unit;  ///< "" for counts
+  std::function<double()> value;
+};
+
+/// The columns of history.csv, declared once: the header and every row come from this list. Counts
+/// are exact in a double (below 2^53) and print as integers. @p loads must hold the wall and tool
+/// loads of the row being written (Stepper::wall_forces(), read once per row).
+std::vector<HistoryColumn> history_columns(const Scene& scene, const Stepper& stepper,
+                                           const std::vector<Eigen::Vector3d>& loads) {
+  const auto count = [](auto n) { return static_cast<double>(n); };
+  std::vector<HistoryColumn> columns{
+      {"time", "s", [&] { return stepper.time(); }},
+      {"kinetic_energy", "J", [&] { return stepper.kinetic_energy(); }},
+      {"rotational_energy", "J", [&] { return stepper.rotational_energy(); }},
+      {"contacts", "", [&, count] { return count(stepper.contacts().contacts); }},
+      {"bonds", "", [&, count] { return count(stepper.contacts().bonds); }},
+      {"bonds_formed", "", [&, count] { return count(stepper.bonds_formed()); }},
+      {"bonds_broken", "", [&, count] { return count(stepper.bonds_broken()); }},
+      {"wall_contacts", "", [&, count] { return count(stepper.contacts().wall_contacts); }},
+      {"max_overlap", "m", [&] { return stepper.contacts().max_overlap; }}};
+  if (scene.particles.thermal()) {
+    const std::vector<double>& t = scene.particles.temperature;
+    columns.push_back(
+        {"max_temperature", "K", [&t] { return *std::max_element(t.begin(), t.end()); }});
+    columns.push_back({"mean_temperature", "K", [&t] {
+                         double sum = 0.0;
+                         for (const double value : t) sum += value;  // index order: any threads
+                         return sum / static_cast<double>(t.size());
+                       }});
+    columns.push_back({"laser_energy", "J", [&] { return stepper.laser_energy(); }});
+  }
+  // The force the particles exert on each wall, then each tool.
+  std::vector<std::string> names;
+  for (const PlaneWall& wall : scene.walls) names.push_back(wall.name);
+  for (const Body& body : scene.bodies) names.push_back(body.name);
+  for (std::size_t k = 0; k < names.size(); ++k) {
+    for (const int axis : {0, 1, 2}) {
+      columns.push_back({"load_" + names[k] + "_" + "xyz"[axis], "N",
+                         [&loads, k, axis] { return loads[k][axis]; }});
+    }
+  }
+  return columns;
+}
+
+/// The header line of history.csv.
+std::string history_header(const std::vector<HistoryColumn>& columns) {
+  std::string header;
+  for (const HistoryColumn& column : columns) header += (header.empty() ? "" : ",") + column.name;
   return header + '\n';
 }
 
@@ -448,7 +489,6 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
   std::optional<Stepper> stepper_storage;
   if (!restarting) {
     stepper_storage.emplace(scene);
-    history << history_header(scene);
   } else {
     Checkpoint restored;
     try {
@@ -479,6 +519,9 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
         every(description.history_interval, description.end_time / 100.0));
   }
   Stepper& stepper = *stepper_storage;
+  std::vector<Eigen::Vector3d> loads;  // of the row being written
+  const std::vector<HistoryColumn> columns = history_columns(scene, stepper, loads);
+  if (!restarting) history << history_header(columns);
 
   const std::int64_t history_every =
       every(description.history_interval, description.end_time / 100.0);
@@ -513,35 +556,15 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
   // kinetic energy while every position is still finite) is a blow-up like any other: the row
   // is not written and BlowUpError names the column and the fastest particle.
   const auto record = [&] {
-    const ContactSummary& c = stepper.contacts();
+    loads = stepper.wall_forces();
     std::ostringstream row;
     std::string non_finite;  // the first column that is not finite
-    const auto put = [&](const std::string& column, double value) {
-      row << ',' << exact(value);
-      if (non_finite.empty() && !std::isfinite(value)) non_finite = column + " = " + exact(value);
-    };
-    row << exact(stepper.time());
-    put("kinetic_energy", stepper.kinetic_energy());
-    put("rotational_energy", stepper.rotational_energy());
-    row << ',' << c.contacts << ',' << c.bonds << ',' << stepper.bonds_formed() << ','
-        << stepper.bonds_broken() << ',' << c.wall_contacts;
-    put("max_overlap", c.max_overlap);
-    if (scene.particles.thermal()) {
-      const std::vector<double>& t = scene.particles.temperature;
-      double sum = 0.0;
-      for (const double value : t) sum += value;  // index order: the same bytes at any thread count
-      put("max_temperature", *std::max_element(t.begin(), t.end()));
-      put("mean_temperature", sum / static_cast<double>(t.size()));
-      put("laser_energy", stepper.laser_energy());
-    }
-    const std::vector<Eigen::Vector3d>& loads = stepper.wall_forces();
-    for (std::size_t k = 0; k < loads.size(); ++k) {
-      const std::string name =
-          "load_" + (k < scene.walls.size() ? scene.walls[k].name
-                                            : scene.bodies[k - scene.walls.size()].name);
-      put(name + "_x", loads[k].x());
-      put(name + "_y", loads[k].y());
-      put(name + "_z", loads[k].z());
+    for (const HistoryColumn& column : columns) {
+      const double value = column.value();
+      row << (&column == &columns.front() ? "" : ",") << exact(value);
+      if (non_finite.empty() && !std::isfinite(value)) {
+        non_finite = column.name + " = " + exact(value) + (*column.unit ? " " : "") + column.unit;
+      }
     }
     row << '\n';
     if (!non_finite.empty()) {
