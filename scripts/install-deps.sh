@@ -6,7 +6,7 @@ set -euo pipefail
 packages=(
   g++ cmake make                      # toolchain
   clang-format                        # the formatting check of the test script
-  libeigen3-dev libnanoflann-dev      # small-vector maths, kd-tree (neighbor oracle)
+  libeigen3-dev                       # small-vector maths
   libvtk9-dev                         # VTK XML output for ParaView
   libyaml-cpp-dev libcli11-dev        # case files, command line
   libgtest-dev libbenchmark-dev       # tests, microbenchmarks
