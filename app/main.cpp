@@ -17,10 +17,10 @@
 #include "io/atomic_file.hpp"
 #include "io/case_file.hpp"
 #include "io/run.hpp"
-#include "solver/calculator.hpp"
-#include "solver/collision.hpp"
-#include "solver/particles.hpp"
-#include "solver/stepper.hpp"
+#include "solver/engine/particles.hpp"
+#include "solver/engine/stepper.hpp"
+#include "solver/experiments/calculator.hpp"
+#include "solver/experiments/collision.hpp"
 
 namespace {
 

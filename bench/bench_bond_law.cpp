@@ -4,8 +4,8 @@
 #include <random>
 #include <vector>
 
-#include "solver/bond_law.hpp"
-#include "solver/pair.hpp"
+#include "solver/models/bond_law.hpp"
+#include "solver/models/pair.hpp"
 
 namespace {
 

@@ -11,9 +11,9 @@
 #include <cmath>
 #include <vector>
 
-#include "solver/contact_kernel.hpp"
-#include "solver/scene.hpp"
-#include "solver/stepper.hpp"
+#include "solver/engine/contact_kernel.hpp"
+#include "solver/engine/scene.hpp"
+#include "solver/engine/stepper.hpp"
 
 namespace {
 

@@ -5,7 +5,7 @@
 #include <omp.h>
 
 #include "lattice_case.hpp"
-#include "solver/stepper.hpp"
+#include "solver/engine/stepper.hpp"
 
 namespace {
 

@@ -2,8 +2,8 @@
 // The benchmarks' dense case, the peers' kind (shared/peers): 1 mm spheres on a simple-cubic
 // lattice of 1.999 mm (neighbors slightly overlapped), periodic in x and y, a floor, gravity,
 // E = 1 GPa, nu = 0.3, restitution 0.5 (xi_con = 0.197), optionally sliding friction 0.5.
-#include "solver/insertion.hpp"
-#include "solver/scene.hpp"
+#include "solver/engine/scene.hpp"
+#include "solver/setup/insertion.hpp"
 
 namespace bondem::bench {
 

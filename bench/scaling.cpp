@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "lattice_case.hpp"
-#include "solver/stepper.hpp"
+#include "solver/engine/stepper.hpp"
 
 namespace {
 

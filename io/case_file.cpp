@@ -10,8 +10,8 @@
 #include <map>
 #include <sstream>
 
-#include "solver/analysis.hpp"
-#include "solver/insertion.hpp"
+#include "solver/analysis/packing.hpp"
+#include "solver/setup/insertion.hpp"
 
 namespace bondem {
 namespace {

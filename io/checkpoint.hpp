@@ -6,9 +6,9 @@
 #include <stdexcept>
 #include <string>
 
-#include "solver/case.hpp"
-#include "solver/particles.hpp"
-#include "solver/stepper.hpp"
+#include "solver/engine/particles.hpp"
+#include "solver/engine/stepper.hpp"
+#include "solver/setup/case.hpp"
 
 namespace bondem {
 

@@ -26,9 +26,9 @@
 #include "io/case_file.hpp"
 #include "io/checkpoint.hpp"
 #include "io/vtk_output.hpp"
-#include "solver/calculator.hpp"
-#include "solver/scene.hpp"
-#include "solver/stepper.hpp"
+#include "solver/engine/scene.hpp"
+#include "solver/engine/stepper.hpp"
+#include "solver/experiments/calculator.hpp"
 
 namespace bondem {
 namespace {

@@ -10,11 +10,11 @@
 #include <string>
 #include <vector>
 
-#include "solver/analysis.hpp"
-#include "solver/case.hpp"
-#include "solver/contact_kernel.hpp"
-#include "solver/layer_metrics.hpp"
-#include "solver/track_metrics.hpp"
+#include "solver/analysis/layer_metrics.hpp"
+#include "solver/analysis/packing.hpp"
+#include "solver/analysis/track_metrics.hpp"
+#include "solver/engine/contact_kernel.hpp"
+#include "solver/setup/case.hpp"
 
 namespace bondem {
 

@@ -23,7 +23,7 @@
 #include "geometry/bodies.hpp"
 #include "geometry/domain.hpp"
 #include "geometry/walls.hpp"
-#include "solver/particles.hpp"
+#include "solver/engine/particles.hpp"
 
 namespace bondem {
 

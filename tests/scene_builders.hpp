@@ -2,8 +2,8 @@
 // Small case builders shared by the multi-particle tests.
 #include <cmath>
 
-#include "solver/case.hpp"
-#include "solver/insertion.hpp"
+#include "solver/setup/case.hpp"
+#include "solver/setup/insertion.hpp"
 
 namespace bondem::testing {
 

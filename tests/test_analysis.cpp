@@ -8,7 +8,7 @@
 #include <random>
 #include <vector>
 
-#include "solver/analysis.hpp"
+#include "solver/analysis/packing.hpp"
 
 namespace bondem {
 namespace {

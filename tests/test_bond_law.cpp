@@ -2,8 +2,8 @@
 // independently in double precision), and each sign rule of Sec. 4.
 #include <gtest/gtest.h>
 
-#include "solver/bond_law.hpp"
-#include "solver/pair.hpp"
+#include "solver/models/bond_law.hpp"
+#include "solver/models/pair.hpp"
 
 namespace bondem {
 namespace {

@@ -6,7 +6,7 @@
 #include <limits>
 
 #include "io/case_file.hpp"
-#include "solver/calculator.hpp"
+#include "solver/experiments/calculator.hpp"
 
 namespace bondem {
 namespace {

@@ -5,8 +5,8 @@
 #include <cmath>
 
 #include "io/case_file.hpp"
-#include "solver/calculator.hpp"
-#include "solver/collision.hpp"
+#include "solver/experiments/calculator.hpp"
+#include "solver/experiments/collision.hpp"
 
 namespace bondem {
 namespace {

@@ -6,8 +6,8 @@
 #include <cmath>
 
 #include "scene_builders.hpp"
-#include "solver/scene.hpp"
-#include "solver/stepper.hpp"
+#include "solver/engine/scene.hpp"
+#include "solver/engine/stepper.hpp"
 
 namespace bondem {
 namespace {

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "solver/insertion.hpp"
+#include "solver/setup/insertion.hpp"
 
 namespace bondem {
 namespace {

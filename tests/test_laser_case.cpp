@@ -13,7 +13,7 @@
 #include "io/run.hpp"
 #include "io/vtk_output.hpp"
 #include "run_helpers.hpp"
-#include "solver/track_metrics.hpp"
+#include "solver/analysis/track_metrics.hpp"
 
 namespace bondem {
 namespace {

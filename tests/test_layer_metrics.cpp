@@ -11,7 +11,7 @@
 #include <utility>
 #include <vector>
 
-#include "solver/layer_metrics.hpp"
+#include "solver/analysis/layer_metrics.hpp"
 
 namespace bondem {
 namespace {

@@ -12,8 +12,8 @@
 #include "io/run.hpp"
 #include "run_helpers.hpp"
 #include "scene_builders.hpp"
-#include "solver/scene.hpp"
-#include "solver/stepper.hpp"
+#include "solver/engine/scene.hpp"
+#include "solver/engine/stepper.hpp"
 
 namespace bondem {
 namespace {

@@ -7,8 +7,8 @@
 
 #include "all_pairs.hpp"
 #include "scene_builders.hpp"
-#include "solver/scene.hpp"
-#include "solver/stepper.hpp"
+#include "solver/engine/scene.hpp"
+#include "solver/engine/stepper.hpp"
 
 namespace bondem {
 namespace {

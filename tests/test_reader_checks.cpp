@@ -9,7 +9,7 @@
 
 #include "case_text.hpp"
 #include "io/case_file.hpp"
-#include "solver/insertion.hpp"
+#include "solver/setup/insertion.hpp"
 
 namespace bondem {
 namespace {

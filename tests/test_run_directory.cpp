@@ -17,7 +17,7 @@
 #include "io/case_file.hpp"
 #include "io/run.hpp"
 #include "run_helpers.hpp"
-#include "solver/stepper.hpp"
+#include "solver/engine/stepper.hpp"
 
 namespace bondem {
 namespace {

@@ -24,10 +24,10 @@
 #include "io/run.hpp"
 #include "run_helpers.hpp"
 #include "scene_builders.hpp"
-#include "solver/calculator.hpp"
-#include "solver/laser.hpp"
-#include "solver/scene.hpp"
-#include "solver/stepper.hpp"
+#include "solver/engine/laser.hpp"
+#include "solver/engine/scene.hpp"
+#include "solver/engine/stepper.hpp"
+#include "solver/experiments/calculator.hpp"
 
 namespace bondem {
 namespace {

@@ -12,8 +12,8 @@
 #include <stdexcept>
 #include <vector>
 
-#include "solver/heat_law.hpp"
-#include "solver/laser.hpp"
+#include "solver/engine/laser.hpp"
+#include "solver/models/heat_law.hpp"
 
 namespace bondem {
 namespace {

@@ -9,10 +9,10 @@
 #include <string>
 
 #include "io/case_file.hpp"
-#include "solver/calculator.hpp"
-#include "solver/collision.hpp"
-#include "solver/scene.hpp"
-#include "solver/stepper.hpp"
+#include "solver/engine/scene.hpp"
+#include "solver/engine/stepper.hpp"
+#include "solver/experiments/calculator.hpp"
+#include "solver/experiments/collision.hpp"
 
 namespace bondem {
 namespace {

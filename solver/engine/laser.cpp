@@ -1,4 +1,4 @@
-#include "solver/laser.hpp"
+#include "solver/engine/laser.hpp"
 
 #include <algorithm>
 #include <cmath>

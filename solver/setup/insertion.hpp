@@ -2,8 +2,8 @@
 /// @file insertion.hpp
 /// Particle insertion for packing cases: a regular lattice and a seeded random fill of a box.
 ///
-/// Pure functions: they return particle specs (solver/case.hpp) and never touch a scene, so a case
-/// reader or a test can call them directly. Everything random is drawn from one
+/// Pure functions: they return particle specs (solver/setup/case.hpp) and never touch a scene, so a
+/// case reader or a test can call them directly. Everything random is drawn from one
 /// std::mt19937_64 stream with hand-written mappings (uniform, Box-Muller), because the standard
 /// library distributions are implementation-defined and would give different packings on
 /// different standard libraries.
@@ -20,7 +20,7 @@
 
 #include "geometry/box.hpp"
 #include "geometry/domain.hpp"
-#include "solver/case.hpp"
+#include "solver/setup/case.hpp"
 
 namespace bondem {
 

@@ -1,4 +1,4 @@
-#include "solver/layer_metrics.hpp"
+#include "solver/analysis/layer_metrics.hpp"
 
 #include <algorithm>
 #include <array>

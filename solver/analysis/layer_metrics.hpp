@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "geometry/box.hpp"
-#include "solver/particles.hpp"
+#include "solver/engine/particles.hpp"
 
 namespace bondem {
 

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "geometry/domain.hpp"
-#include "solver/particles.hpp"
+#include "solver/engine/particles.hpp"
 
 namespace bondem {
 

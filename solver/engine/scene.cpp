@@ -1,9 +1,9 @@
-#include "solver/scene.hpp"
+#include "solver/engine/scene.hpp"
 
 #include <algorithm>
 #include <numbers>
 
-#include "solver/heat_law.hpp"
+#include "solver/models/heat_law.hpp"
 
 namespace bondem {
 

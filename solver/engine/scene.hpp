@@ -10,9 +10,9 @@
 #include "geometry/bodies.hpp"
 #include "geometry/domain.hpp"
 #include "geometry/walls.hpp"
-#include "solver/case.hpp"
-#include "solver/pair.hpp"
-#include "solver/particles.hpp"
+#include "solver/engine/particles.hpp"
+#include "solver/models/pair.hpp"
+#include "solver/setup/case.hpp"
 
 namespace bondem {
 

@@ -1,5 +1,5 @@
 #pragma once
-/// @file analysis.hpp
+/// @file packing.hpp
 /// Packing measures of a particle state: solid fraction and coordination number in a region.
 
 #include <cstddef>
@@ -8,8 +8,8 @@
 
 #include "geometry/box.hpp"
 #include "geometry/domain.hpp"
-#include "solver/neighbor_list.hpp"
-#include "solver/particles.hpp"
+#include "solver/engine/neighbor_list.hpp"
+#include "solver/engine/particles.hpp"
 
 namespace bondem {
 

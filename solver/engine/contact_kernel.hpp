@@ -13,13 +13,13 @@
 
 #include "geometry/bodies.hpp"
 #include "geometry/walls.hpp"
-#include "solver/bond_law.hpp"
-#include "solver/heat_law.hpp"
-#include "solver/neighbor_list.hpp"
-#include "solver/pair.hpp"
-#include "solver/rolling_law.hpp"
-#include "solver/scene.hpp"
-#include "solver/tangential_law.hpp"
+#include "solver/engine/neighbor_list.hpp"
+#include "solver/engine/scene.hpp"
+#include "solver/models/bond_law.hpp"
+#include "solver/models/heat_law.hpp"
+#include "solver/models/pair.hpp"
+#include "solver/models/rolling_law.hpp"
+#include "solver/models/tangential_law.hpp"
 
 namespace bondem {
 

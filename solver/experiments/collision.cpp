@@ -1,10 +1,10 @@
-#include "solver/collision.hpp"
+#include "solver/experiments/collision.hpp"
 
 #include <cmath>
 #include <stdexcept>
 
-#include "solver/scene.hpp"
-#include "solver/stepper.hpp"
+#include "solver/engine/scene.hpp"
+#include "solver/engine/stepper.hpp"
 
 namespace bondem {
 

@@ -1,4 +1,4 @@
-#include "solver/stepper.hpp"
+#include "solver/engine/stepper.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "solver/analysis.hpp"
+#include "solver/analysis/packing.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +7,7 @@
 #include <sstream>
 #include <vector>
 
-#include "solver/layer_metrics.hpp"
+#include "solver/analysis/layer_metrics.hpp"
 
 namespace bondem {
 

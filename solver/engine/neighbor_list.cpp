@@ -1,4 +1,4 @@
-#include "solver/neighbor_list.hpp"
+#include "solver/engine/neighbor_list.hpp"
 
 #include <omp.h>
 

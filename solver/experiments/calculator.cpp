@@ -1,4 +1,4 @@
-#include "solver/calculator.hpp"
+#include "solver/experiments/calculator.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -8,8 +8,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "solver/pair.hpp"
-#include "solver/scene.hpp"
+#include "solver/engine/scene.hpp"
+#include "solver/models/pair.hpp"
 
 namespace bondem {
 

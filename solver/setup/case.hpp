@@ -11,10 +11,10 @@
 #include "geometry/box.hpp"
 #include "geometry/domain.hpp"
 #include "geometry/walls.hpp"
-#include "solver/bond_law.hpp"
-#include "solver/laser.hpp"
-#include "solver/layer_metrics.hpp"
-#include "solver/pair.hpp"
+#include "solver/analysis/layer_metrics.hpp"
+#include "solver/engine/laser.hpp"
+#include "solver/models/bond_law.hpp"
+#include "solver/models/pair.hpp"
 
 namespace bondem {
 

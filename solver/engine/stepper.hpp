@@ -8,9 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "solver/contact_kernel.hpp"
-#include "solver/neighbor_list.hpp"
-#include "solver/scene.hpp"
+#include "solver/engine/contact_kernel.hpp"
+#include "solver/engine/neighbor_list.hpp"
+#include "solver/engine/scene.hpp"
 
 namespace bondem {
 

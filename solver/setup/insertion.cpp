@@ -1,4 +1,4 @@
-#include "solver/insertion.hpp"
+#include "solver/setup/insertion.hpp"
 
 #include <algorithm>
 #include <array>

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "solver/case.hpp"
+#include "solver/setup/case.hpp"
 
 namespace bondem {
 

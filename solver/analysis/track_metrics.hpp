@@ -5,8 +5,8 @@
 
 #include <cstddef>
 
-#include "solver/laser.hpp"
-#include "solver/particles.hpp"
+#include "solver/engine/laser.hpp"
+#include "solver/engine/particles.hpp"
 
 namespace bondem {
 

@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "solver/bond_law.hpp"
+#include "solver/models/bond_law.hpp"
 
 namespace bondem {
 

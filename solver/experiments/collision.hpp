@@ -6,7 +6,7 @@
 #include <functional>
 #include <optional>
 
-#include "solver/case.hpp"
+#include "solver/setup/case.hpp"
 
 namespace bondem {
 

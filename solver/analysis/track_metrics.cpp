@@ -1,4 +1,4 @@
-#include "solver/track_metrics.hpp"
+#include "solver/analysis/track_metrics.hpp"
 
 #include <Eigen/Core>
 #include <algorithm>
