@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <csignal>
+#include <cstdio>
 #include <iomanip>
 #include <iostream>
 #include <optional>
@@ -151,7 +152,9 @@ std::vector<double> parse_range(const std::string& text, std::size_t parts, cons
       values.push_back(std::stod(item, &used));
       if (used != item.size()) throw std::invalid_argument(item);
     } catch (const std::exception&) {
-      throw UsageError(std::string(option) + " " + text + ": '" + item + "' is not a number");
+      throw UsageError(
+          std::string(option).append(" ").append(text).append(": '").append(item).append(
+              "' is not a number"));
     }
   }
   if (values.size() != parts) {
@@ -394,9 +397,8 @@ int run_run(const RunCommand& o) {
   return 0;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+/// The command line: parse, dispatch, and map each kind of failure to its exit status.
+int run_command_line(int argc, char** argv) {
   CLI::App app{"bondem: DEM with the Hertz + adhesion bond model of Quintana-Ruiz & Campello"};
   app.require_subcommand(1);
 
@@ -477,4 +479,16 @@ int main(int argc, char** argv) {
     return 1;
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  // Setting up the options can fail too (memory): no exception may leave main as an abort.
+  try {
+    return run_command_line(argc, argv);
+  } catch (...) {
+    std::fputs("bondem: failed: unexpected error while reading the command line\n", stderr);
+    return 1;
+  }
 }

@@ -144,7 +144,7 @@ class Reader {
   /// A velocity [m/s]: no input of a powder process moves anything near the speed of light, and
   /// the Hertz quantities of v^2 overflow beyond it.
   Eigen::Vector3d velocity(const YAML::Node& node, const std::string& path) const {
-    const Eigen::Vector3d v = vector3(node, path);
+    Eigen::Vector3d v = vector3(node, path);
     if (!(v.stableNorm() < kSpeedOfLight)) {
       std::ostringstream what;
       what << "a speed of " << v.stableNorm()

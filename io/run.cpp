@@ -18,7 +18,6 @@
 #include <numeric>
 #include <optional>
 #include <ostream>
-#include <regex>
 #include <sstream>
 #include <string_view>
 
@@ -258,18 +257,32 @@ void probe_output_directory(const std::filesystem::path& directory, const std::s
   if (error) refuse("a test file cannot be removed: " + error.message());
 }
 
-/// True for the names of the files bondem's runs write (outputs, VTK series), and only those.
-bool is_run_output(const std::string& name) {
-  static const std::regex output(
-      "(history|final_state|last_good_state|clusters|layer)\\.csv|checkpoint\\.bin|"
-      "(particles|contacts|walls|tools)(\\.pvd|_[0-9]{6,}\\.vtp)");
-  return std::regex_match(name, output);
+/// True for a VTK series file: a collection `<kind>.pvd` or a frame `<kind>_NNNNNN.vtp` (six or
+/// more digits) of the particles, contacts, walls or tools.
+bool is_vtk_series(const std::string& name) {
+  for (const std::string kind : {"particles", "contacts", "walls", "tools"}) {
+    if (name == kind + ".pvd") return true;
+    const std::size_t first_digit = kind.size() + 1;
+    if (name.size() < first_digit + 6 + 4 || name.compare(0, first_digit, kind + "_") != 0 ||
+        name.compare(name.size() - 4, 4, ".vtp") != 0) {
+      continue;
+    }
+    const auto digits_end = name.end() - 4;
+    if (std::all_of(name.begin() + static_cast<std::ptrdiff_t>(first_digit), digits_end,
+                    [](char c) { return c >= '0' && c <= '9'; })) {
+      return true;
+    }
+  }
+  return false;
 }
 
-/// True for a VTK series file (frames and collections).
-bool is_vtk_series(const std::string& name) {
-  static const std::regex series("(particles|contacts|walls|tools)(\\.pvd|_[0-9]{6,}\\.vtp)");
-  return std::regex_match(name, series);
+/// True for the names of the files bondem's runs write (outputs, VTK series), and only those.
+bool is_run_output(const std::string& name) {
+  for (const char* output : {"history.csv", "final_state.csv", "last_good_state.csv",
+                             "clusters.csv", "layer.csv", "checkpoint.bin"}) {
+    if (name == output) return true;
+  }
+  return is_vtk_series(name);
 }
 
 /// A run owns its output directory: remove what an earlier run left in it, so that every file

@@ -280,8 +280,8 @@ Polygon wall_polygon(const PlaneWall& wall, const Domain& domain, double side) {
   const Eigen::Vector3d u = n.cross(Eigen::Vector3d::Unit(least)).normalized();
   const Eigen::Vector3d v = n.cross(u);
   const double half = 0.5 * side;
-  const Polygon square{foot - half * u - half * v, foot + half * u - half * v,
-                       foot + half * u + half * v, foot - half * u + half * v};
+  Polygon square{foot - half * u - half * v, foot + half * u - half * v, foot + half * u + half * v,
+                 foot - half * u + half * v};
   if (!(domain.length().array() > 0.0).all()) return square;
   Polygon clipped = square;
   for (int axis = 0; axis < 3 && clipped.size() >= 3; ++axis) {
@@ -325,6 +325,7 @@ vtkSmartPointer<vtkPolyData> tool_data(const std::vector<Body>& bodies, const Do
   std::vector<int> tool_of_cell;
   const auto add = [&](const std::vector<Eigen::Vector3d>& corners, int tool) {
     std::vector<vtkIdType> ids;
+    ids.reserve(corners.size());
     for (const Eigen::Vector3d& c : corners) ids.push_back(points->InsertNextPoint(c.data()));
     polys->InsertNextCell(vtk_size(ids.size()), ids.data());
     tool_of_cell.push_back(tool);

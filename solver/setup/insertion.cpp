@@ -43,10 +43,9 @@ double radius_upper_bound(const RadiusDistribution& d) {
     case RadiusDistribution::Kind::kConstant:
       return d.value;
     case RadiusDistribution::Kind::kUniform:
-      return d.max;
     case RadiusDistribution::Kind::kNormal:
     case RadiusDistribution::Kind::kLogNormal:
-      return d.max;
+      return d.max;  // a cut-off; 0 (none) for the unbounded normal and log-normal
   }
   return 0.0;
 }
