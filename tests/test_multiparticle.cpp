@@ -128,8 +128,9 @@ TEST(Bonds, PairInsideACrowdSettlesAtEquilibrium) {
   for (int k = 0; k < 40; ++k) {  // bystanders on a loose lattice, 4 mm apart
     ParticleSpec p;
     p.radius = 1e-3;
-    p.position = Eigen::Vector3d(0.002 + 0.004 * (k % 5), 0.002 + 0.004 * ((k / 5) % 4),
-                                 0.006 + 0.004 * (k / 20));
+    p.position = Eigen::Vector3d(
+        0.002 + 0.004 * (k % 5), 0.002 + 0.004 * ((k / 5) % 4),
+        0.006 + 0.004 * (k / 20));  // NOLINT(bugprone-integer-division): layers of 20
     c.particles.push_back(p);
   }
   ParticleSpec left, right;

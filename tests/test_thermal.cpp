@@ -729,8 +729,11 @@ TEST(ThermalDeterminism, SameBytesAtOneAndTwoThreads) {
   EXPECT_TRUE(same_bytes(one.bonded, two.bonded));
   EXPECT_EQ(one.bonds_formed, two.bonds_formed);
   EXPECT_EQ(one.bonds_broken, two.bonds_broken);
-  EXPECT_EQ(std::memcmp(&one.laser_energy, &two.laser_energy, sizeof(double)), 0);
-  EXPECT_EQ(std::memcmp(&one.laser_missed, &two.laser_missed, sizeof(double)), 0);
+  // The bytes are what is compared: identical runs, not merely equal values.
+  EXPECT_EQ(std::memcmp(&one.laser_energy, &two.laser_energy, sizeof(double)),  // NOLINT
+            0);
+  EXPECT_EQ(std::memcmp(&one.laser_missed, &two.laser_missed, sizeof(double)),  // NOLINT
+            0);
   RecordProperty("bonds_formed", static_cast<int>(one.bonds_formed));
   RecordProperty("neighbor_builds", static_cast<int>(one.builds));
 }
