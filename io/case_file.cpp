@@ -747,16 +747,8 @@ void read_insertions(const Reader& reader, Case& c, const YAML::Node& insert,
   }
 }
 
-Case read_case(const YAML::Node& root, const Reader& reader) {
-  Case c;
-  c.source = reader.source();
-  if (!root || root.IsNull()) reader.fail(root, "", "the file is empty");
-  reader.expect_map(root, "");
-  reader.check_keys(
-      root, "",
-      {"description", "materials", "contact", "bond", "time", "gravity", "particles", "insert",
-       "domain", "walls", "neighbors", "output", "analysis", "thermal", "laser", "limits"});
-
+/// `materials:`: names (each once, plain) and elastic and thermal properties.
+void read_materials(const Reader& reader, const YAML::Node& root, Case& c) {
   const YAML::Node materials = reader.require(root, "", "materials");
   reader.expect_map(materials, "materials");
   if (materials.size() == 0) reader.fail(materials, "materials", "at least one material needed");
@@ -800,7 +792,10 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
     }
     c.materials.push_back(m);
   }
+}
 
+/// `contact:`: damping ratio, sliding and rolling friction.
+void read_contact(const Reader& reader, const YAML::Node& root, Case& c) {
   const YAML::Node contact = reader.require(root, "", "contact");
   reader.expect_map(contact, "contact");
   reader.check_keys(contact, "contact", {"damping_ratio", "friction", "rolling_friction"});
@@ -812,8 +807,10 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
   }
   c.contact_damping = reader.non_negative(reader.require(contact, "contact", "damping_ratio"),
                                           "contact.damping_ratio");
+}
 
-  // Before any particle: the initial-overlap checks use the run's limit.
+/// `limits:`: the overlap that stops a run (also the limit of the initial overlaps).
+void read_limits(const Reader& reader, const YAML::Node& root, Case& c) {
   if (const YAML::Node limits = root["limits"]) {
     reader.expect_map(limits, "limits");
     reader.check_keys(limits, "limits", {"max_overlap_fraction"});
@@ -823,14 +820,10 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
       reader.fail(fraction, "limits.max_overlap_fraction", "must not exceed 1 (a whole radius)");
     }
   }
+}
 
-  // Read first: whether temperatures are tracked decides which other keys are allowed.
-  if (const YAML::Node thermal = root["thermal"]) c.thermal = read_thermal(reader, thermal);
-  if (const YAML::Node laser = root["laser"]) {
-    if (!c.thermal) fail_without_thermal(reader, laser, "laser");
-    c.laser = read_laser(reader, laser);
-  }
-
+/// `bond:`; without one, plain damped Hertz.
+void read_bond(const Reader& reader, const YAML::Node& root, Case& c) {
   if (const YAML::Node bond = root["bond"]) {
     reader.expect_map(bond, "bond");
     reader.check_keys(
@@ -882,7 +875,10 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
     c.bond.input = AdhesionInput::kEquilibriumOverlap;
     c.bond.equilibrium_overlap = 1.0;
   }
+}
 
+/// `time:`: step and end, and the step count within kMaxSteps.
+void read_time(const Reader& reader, const YAML::Node& root, Case& c) {
   const YAML::Node time = reader.require(root, "", "time");
   reader.expect_map(time, "time");
   reader.check_keys(time, "time", {"step", "end"});
@@ -900,9 +896,10 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
          << c.time_step << " s), more than the limit of " << kMaxSteps << " steps";
     reader.fail(blame_step ? step : end, blame_step ? "time.step" : "time.end", what.str());
   }
+}
 
-  if (const YAML::Node gravity = root["gravity"]) c.gravity = reader.vector3(gravity, "gravity");
-
+/// `particles:`, the explicit list; returns its node (an empty list when absent).
+YAML::Node read_explicit_particles(const Reader& reader, const YAML::Node& root, Case& c) {
   const YAML::Node particles =
       root["particles"] ? root["particles"] : YAML::Node(YAML::NodeType::Sequence);
   if (!particles.IsSequence()) reader.fail(particles, "particles", "expected a list of particles");
@@ -922,18 +919,11 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
     c.particles.push_back(spec);
   }
 
-  const std::size_t explicit_count = c.particles.size();
-  std::vector<ParticleEntry> entries;
-  for (std::size_t k = 0; k < explicit_count; ++k) {
-    entries.push_back({k, Reader::join("particles", k), particles[k]});
-  }
-  if (const YAML::Node domain = root["domain"]) c.domain = read_domain(reader, domain, "domain");
-  if (const YAML::Node walls = root["walls"]) read_walls(reader, c, walls);
-  for (std::size_t k = 0; k < explicit_count; ++k) {
-    check_inside(reader, c, c.particles[k], particles[k], Reader::join("particles", k));
-  }
-  if (const YAML::Node insert = root["insert"]) read_insertions(reader, c, insert, entries);
-  if (c.particles.empty()) reader.fail(root, "particles", "the case has no particles");
+  return particles;
+}
+
+/// With a `thermal:` block every material that particles use needs a heat capacity.
+void check_heat_capacities(const Reader& reader, const YAML::Node& root, Case& c) {
   if (c.thermal) {
     // m c_p dT/dt needs a heat capacity for every particle; walls only need a conductivity.
     for (std::size_t m = 0; m < c.materials.size(); ++m) {
@@ -943,14 +933,17 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
           std::any_of(c.particles.begin(), c.particles.end(),
                       [&](const ParticleSpec& p) { return p.material == static_cast<int>(m); });
       if (used) {
-        reader.fail(materials[material.name],
+        reader.fail(root["materials"][material.name],
                     Reader::join("materials", material.name) + ".specific_heat",
                     "missing required key: particles of material '" + material.name +
                         "' need it with a thermal: block");
       }
     }
   }
+}
 
+/// `neighbors:`: skin and reordering interval.
+void read_neighbors(const Reader& reader, const YAML::Node& root, Case& c) {
   if (const YAML::Node neighbors = root["neighbors"]) {
     reader.expect_map(neighbors, "neighbors");
     reader.check_keys(neighbors, "neighbors", {"skin", "reorder_interval"});
@@ -960,9 +953,10 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
           static_cast<int>(reader.integer(interval, "neighbors.reorder_interval", 0, 1000000));
     }
   }
-  check_periodic_axes(reader, c, root);
-  check_initial_overlaps(reader, c, entries);
+}
 
+/// `output:`: directory and intervals.
+void read_output(const Reader& reader, const YAML::Node& root, Case& c) {
   if (const YAML::Node output = root["output"]) {
     reader.expect_map(output, "output");
     reader.check_keys(output, "output",
@@ -980,6 +974,63 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
       c.checkpoint_interval = reader.positive(interval, "output.checkpoint_interval");
     }
   }
+}
+
+/// `analysis:`: the bed region and the spread layer, checked before step 0.
+/// `analysis.layer`: the spread layer's box, bins and surface grid (at most kMaxLayerColumns
+/// columns at the grid spacing, or at a quarter of @p radius_min by default).
+LayerRegion read_layer(const Reader& reader, const YAML::Node& layer, const Case& c,
+                       double radius_min) {
+  static constexpr const char* kAxis[3] = {"x", "y", "z"};
+  const std::string path = "analysis.layer";
+  reader.expect_map(layer, path);
+  reader.check_keys(
+      layer, path,
+      {"x_min", "x_max", "y_min", "y_max", "substrate_z", "layer_height", "bins", "grid_spacing"});
+  LayerRegion r;
+  r.x_min = reader.number(reader.require(layer, path, "x_min"), path + ".x_min");
+  r.x_max = reader.number(reader.require(layer, path, "x_max"), path + ".x_max");
+  r.y_min = reader.number(reader.require(layer, path, "y_min"), path + ".y_min");
+  r.y_max = reader.number(reader.require(layer, path, "y_max"), path + ".y_max");
+  if (!(r.x_max > r.x_min)) reader.fail(layer["x_max"], path + ".x_max", "must exceed x_min");
+  if (!(r.y_max > r.y_min)) reader.fail(layer["y_max"], path + ".y_max", "must exceed y_min");
+  r.substrate_z = reader.number(reader.require(layer, path, "substrate_z"), path + ".substrate_z");
+  r.layer_height =
+      reader.positive(reader.require(layer, path, "layer_height"), path + ".layer_height");
+  if (const YAML::Node bins = layer["bins"]) {
+    r.bins = static_cast<int>(reader.integer(bins, path + ".bins", 1, 100000));
+  }
+  if (const YAML::Node spacing = layer["grid_spacing"]) {
+    r.grid_spacing = reader.positive(spacing, path + ".grid_spacing");
+  }
+  if (c.domain) {
+    const double layer_min[3] = {r.x_min, r.y_min, r.substrate_z};
+    const double layer_max[3] = {r.x_max, r.y_max, r.substrate_z + r.layer_height};
+    const char* bound[3] = {"x_min", "y_min", "substrate_z"};
+    for (int a = 0; a < 3; ++a) {
+      if (layer_max[a] <= c.domain->min[a] || layer_min[a] >= c.domain->max[a]) {
+        reader.fail(layer[bound[a]], path + "." + bound[a],
+                    std::string("the layer lies outside the domain along ") + kAxis[a]);
+      }
+    }
+  }
+  // The surface grid: its spacing, or by default a quarter of the smallest radius (a bound:
+  // the run takes the smallest among the particles at the surface).
+  const double spacing = r.grid_spacing > 0.0 ? r.grid_spacing : 0.25 * radius_min;
+  const double columns = layer_grid_columns(r, spacing);
+  if (columns > kMaxLayerColumns) {
+    std::ostringstream what;
+    what << "the surface grid would have " << columns << " columns (spacing " << spacing
+         << " m), above " << kMaxLayerColumns;
+    if (r.grid_spacing > 0.0) {
+      reader.fail(layer["grid_spacing"], path + ".grid_spacing", what.str());
+    }
+    reader.fail(layer, path, what.str() + "; set a coarser grid_spacing");
+  }
+  return r;
+}
+
+void read_analysis(const Reader& reader, const YAML::Node& root, Case& c) {
   if (const YAML::Node analysis = root["analysis"]) {
     reader.expect_map(analysis, "analysis");
     reader.check_keys(analysis, "analysis", {"region", "layer"});
@@ -1011,55 +1062,58 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
       }
     }
     if (const YAML::Node layer = analysis["layer"]) {
-      const std::string path = "analysis.layer";
-      reader.expect_map(layer, path);
-      reader.check_keys(layer, path,
-                        {"x_min", "x_max", "y_min", "y_max", "substrate_z", "layer_height", "bins",
-                         "grid_spacing"});
-      LayerRegion r;
-      r.x_min = reader.number(reader.require(layer, path, "x_min"), path + ".x_min");
-      r.x_max = reader.number(reader.require(layer, path, "x_max"), path + ".x_max");
-      r.y_min = reader.number(reader.require(layer, path, "y_min"), path + ".y_min");
-      r.y_max = reader.number(reader.require(layer, path, "y_max"), path + ".y_max");
-      if (!(r.x_max > r.x_min)) reader.fail(layer["x_max"], path + ".x_max", "must exceed x_min");
-      if (!(r.y_max > r.y_min)) reader.fail(layer["y_max"], path + ".y_max", "must exceed y_min");
-      r.substrate_z =
-          reader.number(reader.require(layer, path, "substrate_z"), path + ".substrate_z");
-      r.layer_height =
-          reader.positive(reader.require(layer, path, "layer_height"), path + ".layer_height");
-      if (const YAML::Node bins = layer["bins"]) {
-        r.bins = static_cast<int>(reader.integer(bins, path + ".bins", 1, 100000));
-      }
-      if (const YAML::Node spacing = layer["grid_spacing"]) {
-        r.grid_spacing = reader.positive(spacing, path + ".grid_spacing");
-      }
-      if (c.domain) {
-        const double layer_min[3] = {r.x_min, r.y_min, r.substrate_z};
-        const double layer_max[3] = {r.x_max, r.y_max, r.substrate_z + r.layer_height};
-        const char* bound[3] = {"x_min", "y_min", "substrate_z"};
-        for (int a = 0; a < 3; ++a) {
-          if (layer_max[a] <= c.domain->min[a] || layer_min[a] >= c.domain->max[a]) {
-            reader.fail(layer[bound[a]], path + "." + bound[a],
-                        std::string("the layer lies outside the domain along ") + kAxis[a]);
-          }
-        }
-      }
-      // The surface grid: its spacing, or by default a quarter of the smallest radius (a bound:
-      // the run takes the smallest among the particles at the surface).
-      const double spacing = r.grid_spacing > 0.0 ? r.grid_spacing : 0.25 * radius_min;
-      const double columns = layer_grid_columns(r, spacing);
-      if (columns > kMaxLayerColumns) {
-        std::ostringstream what;
-        what << "the surface grid would have " << columns << " columns (spacing " << spacing
-             << " m), above " << kMaxLayerColumns;
-        if (r.grid_spacing > 0.0) {
-          reader.fail(layer["grid_spacing"], path + ".grid_spacing", what.str());
-        }
-        reader.fail(layer, path, what.str() + "; set a coarser grid_spacing");
-      }
-      c.layer = r;
+      c.layer = read_layer(reader, layer, c, radius_min);
     }
   }
+}
+
+Case read_case(const YAML::Node& root, const Reader& reader) {
+  Case c;
+  c.source = reader.source();
+  if (!root || root.IsNull()) reader.fail(root, "", "the file is empty");
+  reader.expect_map(root, "");
+  reader.check_keys(
+      root, "",
+      {"description", "materials", "contact", "bond", "time", "gravity", "particles", "insert",
+       "domain", "walls", "neighbors", "output", "analysis", "thermal", "laser", "limits"});
+
+  read_materials(reader, root, c);
+  read_contact(reader, root, c);
+  // Before any particle: the initial-overlap checks use the run's limit.
+  read_limits(reader, root, c);
+
+  // Read first: whether temperatures are tracked decides which other keys are allowed.
+  if (const YAML::Node thermal = root["thermal"]) c.thermal = read_thermal(reader, thermal);
+  if (const YAML::Node laser = root["laser"]) {
+    if (!c.thermal) fail_without_thermal(reader, laser, "laser");
+    c.laser = read_laser(reader, laser);
+  }
+
+  read_bond(reader, root, c);
+  read_time(reader, root, c);
+  if (const YAML::Node gravity = root["gravity"]) c.gravity = reader.vector3(gravity, "gravity");
+
+  const YAML::Node particles = read_explicit_particles(reader, root, c);
+  const std::size_t explicit_count = c.particles.size();
+  std::vector<ParticleEntry> entries;
+  for (std::size_t k = 0; k < explicit_count; ++k) {
+    entries.push_back({k, Reader::join("particles", k), particles[k]});
+  }
+  if (const YAML::Node domain = root["domain"]) c.domain = read_domain(reader, domain, "domain");
+  if (const YAML::Node walls = root["walls"]) read_walls(reader, c, walls);
+  for (std::size_t k = 0; k < explicit_count; ++k) {
+    check_inside(reader, c, c.particles[k], particles[k], Reader::join("particles", k));
+  }
+  if (const YAML::Node insert = root["insert"]) read_insertions(reader, c, insert, entries);
+  if (c.particles.empty()) reader.fail(root, "particles", "the case has no particles");
+  check_heat_capacities(reader, root, c);
+
+  read_neighbors(reader, root, c);
+  check_periodic_axes(reader, c, root);
+  check_initial_overlaps(reader, c, entries);
+
+  read_output(reader, root, c);
+  read_analysis(reader, root, c);
   return c;
 }
 
