@@ -771,9 +771,16 @@ void read_materials(const Reader& reader, const YAML::Node& root, Case& c) {
     reader.check_keys(body, path,
                       {"density", "youngs_modulus", "poisson_ratio", "specific_heat",
                        "thermal_conductivity", "emissivity"});
-    m.density = reader.positive(reader.require(body, path, "density"), path + ".density");
-    m.youngs_modulus =
-        reader.positive(reader.require(body, path, "youngs_modulus"), path + ".youngs_modulus");
+    // Bounds far outside any solid (osmium: 2.3e4 kg/m^3, diamond: 1.2e12 Pa) but inside what the
+    // derived quantities (masses, stiffnesses, their products) can hold in a double.
+    const YAML::Node density = reader.require(body, path, "density");
+    m.density = reader.positive(density, path + ".density");
+    if (m.density > 1e6) reader.fail(density, path + ".density", "must not exceed 1e6 kg/m^3");
+    const YAML::Node modulus = reader.require(body, path, "youngs_modulus");
+    m.youngs_modulus = reader.positive(modulus, path + ".youngs_modulus");
+    if (m.youngs_modulus > 1e14) {
+      reader.fail(modulus, path + ".youngs_modulus", "must not exceed 1e14 Pa");
+    }
     const YAML::Node nu = reader.require(body, path, "poisson_ratio");
     m.poisson_ratio = reader.number(nu, path + ".poisson_ratio");
     if (!(m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5)) {
@@ -942,6 +949,25 @@ void check_heat_capacities(const Reader& reader, const YAML::Node& root, Case& c
   }
 }
 
+/// A bond whose equilibrium overlap the run's own overlap limit forbids would stop every run that
+/// bonds: refuse delta_eq at or above limits.max_overlap_fraction of the smallest radius.
+void check_equilibrium_overlap(const Reader& reader, const YAML::Node& root, const Case& c) {
+  if (c.bond.criterion == BondCriterion::kNever ||
+      c.bond.input != AdhesionInput::kEquilibriumOverlap || c.particles.empty()) {
+    return;
+  }
+  double smallest = c.particles.front().radius;
+  for (const ParticleSpec& p : c.particles) smallest = std::min(smallest, p.radius);
+  const double limit = c.max_overlap_fraction * smallest;
+  if (c.bond.equilibrium_overlap >= limit) {
+    std::ostringstream what;
+    what << c.bond.equilibrium_overlap << " m is not below limits.max_overlap_fraction ("
+         << c.max_overlap_fraction << ") of the smallest radius, " << limit
+         << " m: a bonded pair would stop the run";
+    reader.fail(root["bond"]["equilibrium_overlap"], "bond.equilibrium_overlap", what.str());
+  }
+}
+
 /// `neighbors:`: skin and reordering interval.
 void read_neighbors(const Reader& reader, const YAML::Node& root, Case& c) {
   if (const YAML::Node neighbors = root["neighbors"]) {
@@ -1107,6 +1133,7 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
   if (const YAML::Node insert = root["insert"]) read_insertions(reader, c, insert, entries);
   if (c.particles.empty()) reader.fail(root, "particles", "the case has no particles");
   check_heat_capacities(reader, root, c);
+  check_equilibrium_overlap(reader, root, c);
 
   read_neighbors(reader, root, c);
   check_periodic_axes(reader, c, root);

@@ -92,6 +92,31 @@ TEST(ReaderChecks, UnphysicalSpeedIsRefusedNamingTheSetOrTheLine) {
   EXPECT_NE(in_file.find("'particles.0.velocity'"), std::string::npos) << in_file;
 }
 
+// Values that no solid has made the derived masses, stiffnesses and the time-step limit NaN or
+// infinite (issue 12 item 4); an equilibrium overlap past the run's own overlap limit made every
+// bonded pair stop the run.
+TEST(ReaderChecks, AbsurdMaterialsAndEquilibriumOverlapAreRefused) {
+  const std::string bonded =
+      kPair +
+      "bond: {alpha: 1, equilibrium_overlap: 5.0e-5, damping_ratio: 0.5, criterion: always}\n";
+  ASSERT_EQ(error_of(bonded), "");
+  EXPECT_EQ(error_of(kPair, {"materials.powder.density=1e308"}),
+            "--set materials.powder.density=1e308: 'materials.powder.density': must not exceed "
+            "1e6 kg/m^3");
+  EXPECT_EQ(error_of(kPair, {"materials.powder.youngs_modulus=1e308"}),
+            "--set materials.powder.youngs_modulus=1e308: 'materials.powder.youngs_modulus': must "
+            "not exceed 1e14 Pa");
+  // 0.25 of the 1 mm radius is the limit: just below it is accepted, at it refused.
+  EXPECT_EQ(error_of(bonded, {"bond.equilibrium_overlap=2.49e-4"}), "");
+  const std::string at_limit = error_of(bonded, {"bond.equilibrium_overlap=2.5e-4"});
+  EXPECT_NE(at_limit.find("'bond.equilibrium_overlap': 0.00025 m is not below "
+                          "limits.max_overlap_fraction (0.25)"),
+            std::string::npos)
+      << at_limit;
+  // Without bonding the placeholder is not checked.
+  EXPECT_EQ(error_of(kPair), "");
+}
+
 TEST(ReaderChecks, OverlapsUpToTheRunsLimitAreAcceptedBeyondItRefused) {
   // 0.1 mm of overlap on radii of 1 mm is 0.1 of the smaller radius: within the default 0.25.
   EXPECT_EQ(error_of(kPair, {"particles.1.position.0=0.0019"}), "");
