@@ -6,6 +6,7 @@
 #include <functional>
 #include <numbers>
 #include <sstream>
+#include <utility>
 
 namespace bondem {
 namespace {
@@ -37,30 +38,10 @@ double smallest_extent(const Box& b) {
   return (b.max - b.min).minCoeff();
 }
 
-/// Largest radius the distribution can produce, or 0 when it is unbounded.
-double radius_upper_bound(const RadiusDistribution& d) {
-  switch (d.kind) {
-    case RadiusDistribution::Kind::kConstant:
-      return d.value;
-    case RadiusDistribution::Kind::kUniform:
-    case RadiusDistribution::Kind::kNormal:
-    case RadiusDistribution::Kind::kLogNormal:
-      return d.max;  // a cut-off; 0 (none) for the unbounded normal and log-normal
-  }
-  return 0.0;
-}
-
-/// Smallest radius the distribution can produce, or 0 when it has no lower bound.
-double radius_lower_bound(const RadiusDistribution& d) {
-  switch (d.kind) {
-    case RadiusDistribution::Kind::kConstant:
-      return d.value;
-    case RadiusDistribution::Kind::kUniform:
-    case RadiusDistribution::Kind::kNormal:
-    case RadiusDistribution::Kind::kLogNormal:
-      return d.min;
-  }
-  return 0.0;
+/// Smallest and largest radius the distribution can produce; 0 for a side without a bound.
+std::pair<double, double> radius_bounds(const RadiusDistribution& d) {
+  if (d.kind == RadiusDistribution::Kind::kConstant) return {d.value, d.value};
+  return {d.min, d.max};  // the cut-offs; 0 (none) for an uncut normal or log-normal
 }
 
 double raw_draw(const RadiusDistribution& d, Rng& rng) {
@@ -329,7 +310,7 @@ std::vector<ParticleSpec> insert_random_fill(const FillRequest& request,
     throw std::invalid_argument("random fill: max_attempts_per_particle must be >= 1");
   }
   const double half_room = 0.5 * smallest_extent(region);
-  const double bound = radius_upper_bound(request.radius);
+  const double bound = radius_bounds(request.radius).second;
   if (bound > half_room) {
     throw std::invalid_argument("random fill: radius up to " + std::to_string(bound) +
                                 " does not fit the region " + box_text(region));
@@ -345,7 +326,7 @@ std::vector<ParticleSpec> insert_random_fill(const FillRequest& request,
     throw std::invalid_argument(m.str());
   }
   // Refuse a count whose spheres cannot fit at their smallest possible size before drawing them.
-  const double smallest_volume = sphere_volume(radius_lower_bound(request.radius));
+  const double smallest_volume = sphere_volume(radius_bounds(request.radius).first);
   if (static_cast<double>(request.count) * smallest_volume / region_volume >
       kMaxRandomFillSolidFraction) {
     refuse_too_dense("count " + std::to_string(request.count) +
