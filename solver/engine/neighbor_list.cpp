@@ -104,7 +104,7 @@ void NeighborList::bin(const Particles& p, const Domain& domain, double cell_siz
     cell_items_[cursor_[cell_of_[i]]++] = static_cast<std::uint32_t>(i);
 }
 
-void NeighborList::build(Particles& p, const Domain& domain, double skin, bool reorder) {
+void NeighborList::wrap_and_set_shifts(Particles& p, const Domain& domain) {
   const std::size_t n = p.size();
   const Eigen::Vector3d length = domain.length();
   for (int a = 0; a < 3; ++a) {
@@ -123,16 +123,70 @@ void NeighborList::build(Particles& p, const Domain& domain, double skin, bool r
       }
     }
   }
-  double max_radius = 0.0;
-  for (std::size_t i = 0; i < n; ++i) max_radius = std::max(max_radius, p.radius[i]);
-  const double cell_size = std::max(2.0 * max_radius + skin, 1e-300);
+}
 
-  bin(p, domain, cell_size);
-  if (reorder) {
-    p.permute(cell_items_);  // particles sorted by cell: neighbors become neighbors in memory
-    bin(p, domain, cell_size);
+void NeighborList::search_row(const Particles& p, const Domain& domain,
+                              const Eigen::Vector3d& length, double skin, std::size_t i,
+                              std::vector<std::uint32_t>& row_second,
+                              std::vector<std::uint8_t>& row_image) const {
+  const std::uint32_t c = cell_of_[i];
+  const int home[3] = {static_cast<int>(c % static_cast<std::uint32_t>(cells_[0])),
+                       static_cast<int>(c / static_cast<std::uint32_t>(cells_[0]) %
+                                        static_cast<std::uint32_t>(cells_[1])),
+                       static_cast<int>(c / static_cast<std::uint32_t>(cells_[0] * cells_[1]))};
+  for (int dz = -1; dz <= 1; ++dz) {
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int offset[3] = {dx, dy, dz};
+        int neighbor[3];
+        // Image of the cell's particles seen from i: a cell reached across a periodic face
+        // holds particles one period away. Periodic axes have at least three cells, wider
+        // than the reach, so this is the one image that can be within reach.
+        int s[3] = {0, 0, 0};
+        bool inside = true;
+        for (int a = 0; a < 3; ++a) {
+          neighbor[a] = home[a] + offset[a];
+          if (domain.periodic[a]) {
+            if (neighbor[a] < 0) {  // wrapped to the top cell: its particles one period down
+              neighbor[a] += cells_[a];
+              s[a] = -1;
+            } else if (neighbor[a] >= cells_[a]) {  // to the bottom cell: one period up
+              neighbor[a] -= cells_[a];
+              s[a] = 1;
+            }
+          } else if (neighbor[a] < 0 || neighbor[a] >= cells_[a]) {
+            inside = false;
+          }
+        }
+        const double shift[3] = {s[0] * length[0], s[1] * length[1], s[2] * length[2]};
+        const std::uint8_t code = image_code(s[0], s[1], s[2]);
+        // With one or two cells on a non-periodic axis the offsets -1 and +1 are skipped or
+        // distinct; with three or more periodic cells they are distinct too: no duplicates.
+        if (!inside) continue;
+        const std::size_t cell =
+            static_cast<std::size_t>(neighbor[0]) +
+            static_cast<std::size_t>(cells_[0]) *
+                (static_cast<std::size_t>(neighbor[1]) +
+                 static_cast<std::size_t>(cells_[1]) * static_cast<std::size_t>(neighbor[2]));
+        for (std::uint32_t k = cell_begin_[cell]; k < cell_begin_[cell + 1]; ++k) {
+          const std::uint32_t j = cell_items_[k];
+          if (j <= i) continue;
+          const double d[3] = {p.x[j] - p.x[i] + shift[0], p.y[j] - p.y[i] + shift[1],
+                               p.z[j] - p.z[i] + shift[2]};
+          const double reach = p.radius[i] + p.radius[j] + skin;
+          if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < reach * reach) {
+            row_second.push_back(j);
+            row_image.push_back(code);
+          }
+        }
+      }
+    }
   }
+}
 
+void NeighborList::find_rows(const Particles& p, const Domain& domain, double skin) {
+  const std::size_t n = p.size();
+  const Eigen::Vector3d length = domain.length();
   // Rows are built per particle in parallel into thread-local buffers, then concatenated in
   // particle order: the list is the same for any number of threads.
   std::vector<std::uint32_t>& row_count = row_count_;
@@ -154,60 +208,8 @@ void NeighborList::build(Particles& p, const Domain& domain, double skin, bool r
 #pragma omp for schedule(static)
     for (std::size_t i = 0; i < n; ++i) {
       if (local_first[t] == n) local_first[t] = i;
-      const std::uint32_t c = cell_of_[i];
-      const int home[3] = {static_cast<int>(c % static_cast<std::uint32_t>(cells_[0])),
-                           static_cast<int>(c / static_cast<std::uint32_t>(cells_[0]) %
-                                            static_cast<std::uint32_t>(cells_[1])),
-                           static_cast<int>(c / static_cast<std::uint32_t>(cells_[0] * cells_[1]))};
       const std::size_t before = my_second.size();
-      for (int dz = -1; dz <= 1; ++dz) {
-        for (int dy = -1; dy <= 1; ++dy) {
-          for (int dx = -1; dx <= 1; ++dx) {
-            const int offset[3] = {dx, dy, dz};
-            int neighbor[3];
-            // Image of the cell's particles seen from i: a cell reached across a periodic face
-            // holds particles one period away. Periodic axes have at least three cells, wider
-            // than the reach, so this is the one image that can be within reach.
-            int s[3] = {0, 0, 0};
-            bool inside = true;
-            for (int a = 0; a < 3; ++a) {
-              neighbor[a] = home[a] + offset[a];
-              if (domain.periodic[a]) {
-                if (neighbor[a] < 0) {  // wrapped to the top cell: its particles one period down
-                  neighbor[a] += cells_[a];
-                  s[a] = -1;
-                } else if (neighbor[a] >= cells_[a]) {  // to the bottom cell: one period up
-                  neighbor[a] -= cells_[a];
-                  s[a] = 1;
-                }
-              } else if (neighbor[a] < 0 || neighbor[a] >= cells_[a]) {
-                inside = false;
-              }
-            }
-            const double shift[3] = {s[0] * length[0], s[1] * length[1], s[2] * length[2]};
-            const std::uint8_t code = image_code(s[0], s[1], s[2]);
-            // With one or two cells on a non-periodic axis the offsets -1 and +1 are skipped or
-            // distinct; with three or more periodic cells they are distinct too: no duplicates.
-            if (!inside) continue;
-            const std::size_t cell =
-                static_cast<std::size_t>(neighbor[0]) +
-                static_cast<std::size_t>(cells_[0]) *
-                    (static_cast<std::size_t>(neighbor[1]) +
-                     static_cast<std::size_t>(cells_[1]) * static_cast<std::size_t>(neighbor[2]));
-            for (std::uint32_t k = cell_begin_[cell]; k < cell_begin_[cell + 1]; ++k) {
-              const std::uint32_t j = cell_items_[k];
-              if (j <= i) continue;
-              const double d[3] = {p.x[j] - p.x[i] + shift[0], p.y[j] - p.y[i] + shift[1],
-                                   p.z[j] - p.z[i] + shift[2]};
-              const double reach = p.radius[i] + p.radius[j] + skin;
-              if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < reach * reach) {
-                my_second.push_back(j);
-                my_image.push_back(code);
-              }
-            }
-          }
-        }
-      }
+      search_row(p, domain, length, skin, i, my_second, my_image);
       row_count[i] = static_cast<std::uint32_t>(my_second.size() - before);
     }
   }
@@ -222,7 +224,10 @@ void NeighborList::build(Particles& p, const Domain& domain, double skin, bool r
     std::copy(local_image[t].begin(), local_image[t].end(),
               image.begin() + row_begin[local_first[t]]);
   }
+}
 
+void NeighborList::index_columns() {
+  const std::size_t n = row_begin.size() - 1;
   // Transposed index, count -> scan -> fill in pair order.
   column_begin.assign(n + 1, 0);
   for (const std::uint32_t j : second) ++column_begin[j + 1];
@@ -232,12 +237,9 @@ void NeighborList::build(Particles& p, const Domain& domain, double skin, bool r
   for (std::size_t k = 0; k < second.size(); ++k) {
     column_pair[cursor_[second[k]]++] = static_cast<std::uint32_t>(k);
   }
+}
 
-  x0_ = p.x;
-  y0_ = p.y;
-  z0_ = p.z;
-  ++builds;
-
+void NeighborList::release_scratch() {
   // The grid and the per-thread buffers serve only while building. Returning them keeps what a
   // run holds between rebuilds to the list itself (about 30 bytes per particle less); a rebuild,
   // every tens of steps at most, pays a few allocations for it.
@@ -248,6 +250,28 @@ void NeighborList::build(Particles& p, const Domain& domain, double skin, bool r
   release(row_count_);
   release(local_second_);
   release(local_image_);
+}
+
+void NeighborList::build(Particles& p, const Domain& domain, double skin, bool reorder) {
+  const std::size_t n = p.size();
+  wrap_and_set_shifts(p, domain);
+  double max_radius = 0.0;
+  for (std::size_t i = 0; i < n; ++i) max_radius = std::max(max_radius, p.radius[i]);
+  const double cell_size = std::max(2.0 * max_radius + skin, 1e-300);
+
+  bin(p, domain, cell_size);
+  if (reorder) {
+    p.permute(cell_items_);  // particles sorted by cell: neighbors become neighbors in memory
+    bin(p, domain, cell_size);
+  }
+  find_rows(p, domain, skin);
+  index_columns();
+
+  x0_ = p.x;
+  y0_ = p.y;
+  z0_ = p.z;
+  ++builds;
+  release_scratch();
 }
 
 void NeighborList::save(NeighborListState& state) const {

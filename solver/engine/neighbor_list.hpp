@@ -78,7 +78,19 @@ class NeighborList {
   std::int64_t builds = 0;                  ///< number of builds so far
 
  private:
+  /// Wrap periodic coordinates into the domain and fill the image shift table.
+  void wrap_and_set_shifts(Particles& p, const Domain& domain);
   void bin(const Particles& p, const Domain& domain, double cell_size);
+  /// Append particle i's row (pairs j > i within reach, each with its image code).
+  void search_row(const Particles& p, const Domain& domain, const Eigen::Vector3d& length,
+                  double skin, std::size_t i, std::vector<std::uint32_t>& row_second,
+                  std::vector<std::uint8_t>& row_image) const;
+  /// All rows, searched in parallel into per-thread buffers and concatenated in particle order.
+  void find_rows(const Particles& p, const Domain& domain, double skin);
+  /// The transposed index (pairs by their second particle), count -> scan -> fill.
+  void index_columns();
+  /// Return the grid and per-thread buffers, which serve only while building.
+  void release_scratch();
 
   std::array<int, 3> cells_{1, 1, 1};
   Eigen::Vector3d cell_width_ = Eigen::Vector3d::Ones();
