@@ -291,8 +291,9 @@ std::vector<ParticleSpec> insert_lattice(const Box& region, double spacing, doub
   return out;
 }
 
-std::vector<ParticleSpec> insert_random_fill(const FillRequest& request,
-                                             const std::vector<ParticleSpec>& existing) {
+/// The checks of a fill request that need no drawing: ranges, targets, and counts whose spheres
+/// could not fit even at their smallest. Throws std::invalid_argument.
+void validate_fill(const FillRequest& request) {
   const Box& region = request.region;
   validate_box(region, "random fill");
   validate(request.radius);
@@ -333,11 +334,18 @@ std::vector<ParticleSpec> insert_random_fill(const FillRequest& request,
                          " even at the smallest possible radius: solid fraction",
                      static_cast<double>(request.count) * smallest_volume / region_volume);
   }
-  Rng rng(request.seed);
+}
 
+/// The radii of a fill, drawn first (so the target is reached by construction) and sorted
+/// largest first; @p drawn_volume receives their volume. Refuses fills past
+/// kMaxRandomFillSolidFraction, stopping the draw as soon as that is certain.
+std::vector<double> draw_fill_radii(const FillRequest& request, Rng& rng, double& drawn_volume) {
+  const Box& region = request.region;
+  const double half_room = 0.5 * smallest_extent(region);
+  const double region_volume = region.volume();
   // Radii first: the target is reached by construction, and sorting them is possible.
   std::vector<double> radii;
-  double drawn_volume = 0.0;
+  drawn_volume = 0.0;
   const double target_volume = request.solid_fraction * region_volume;
   while (request.count > 0 ? radii.size() < request.count : drawn_volume < target_volume) {
     const double r = draw_radius(request.radius, rng);
@@ -360,8 +368,21 @@ std::vector<ParticleSpec> insert_random_fill(const FillRequest& request,
   }
   // Ties are equal values, so the sorted sequence does not depend on the sort algorithm.
   std::sort(radii.begin(), radii.end(), std::greater<>());
-  const double r_max = radii.front();
+  return radii;
+}
 
+/// Where a fill looks for overlaps: `near` holds spheres by their centre, `big` the existing
+/// spheres too large for the 27 cells around a centre, in every cell they can reach.
+struct FillGrids {
+  std::array<std::size_t, 3> cells;
+  CellGrid near;
+  CellGrid big;
+};
+
+/// The grids of a fill of @p new_count spheres up to @p r_max, holding the existing spheres that
+/// could touch one of them.
+FillGrids index_existing(const Box& region, const std::vector<ParticleSpec>& existing, double r_max,
+                         std::size_t new_count) {
   // Existing spheres that could touch a new one: center closer to the region than r + r_max.
   std::vector<Sphere> spheres;  // existing ones only; placed ones live in the grid
   for (const ParticleSpec& p : existing) {
@@ -377,12 +398,13 @@ std::vector<ParticleSpec> insert_random_fill(const FillRequest& request,
   // `near` holds spheres by their center: with cell edges >= r + r_j, any overlapping sphere is
   // in the 27 cells around the new center. Existing spheres too big for that go to `big`, in
   // every cell their center +- (r_j + r_max) touches, so only the new center's cell is looked up.
-  const double max_cells = 2.0 * static_cast<double>(n_existing + radii.size()) + 64.0;
+  const double max_cells = 2.0 * static_cast<double>(n_existing + new_count) + 64.0;
   const auto cells = grid_cells(region, 2.0 * r_max, max_cells);
-  CellGrid near(region, cells);
-  CellGrid big(region, cells);
+  FillGrids grids{cells, CellGrid(region, cells), CellGrid(region, cells)};
+  CellGrid& near = grids.near;
+  CellGrid& big = grids.big;
   const double near_limit = near.min_cell_size() - r_max;  // r_j up to this fit the 27 cells
-  near.reserve(n_existing + radii.size());
+  near.reserve(n_existing + new_count);
   for (const Sphere& e : spheres) {
     if (e.r <= near_limit) {
       near.add(near.coordinate(0, e.x), near.coordinate(1, e.y), near.coordinate(2, e.z), e);
@@ -401,6 +423,23 @@ std::vector<ParticleSpec> insert_random_fill(const FillRequest& request,
       }
     }
   }
+
+  return grids;
+}
+
+std::vector<ParticleSpec> insert_random_fill(const FillRequest& request,
+                                             const std::vector<ParticleSpec>& existing) {
+  validate_fill(request);
+  const Box& region = request.region;
+  const double region_volume = region.volume();
+  Rng rng(request.seed);
+  double drawn_volume = 0.0;
+  const std::vector<double> radii = draw_fill_radii(request, rng, drawn_volume);
+  const double r_max = radii.front();
+  FillGrids grids = index_existing(region, existing, r_max, radii.size());
+  CellGrid& near = grids.near;
+  const CellGrid& big = grids.big;
+  const std::array<std::size_t, 3>& cells = grids.cells;
 
   std::vector<ParticleSpec> out;
   out.reserve(radii.size());
