@@ -291,42 +291,48 @@ double layer_grid_columns(const LayerRegion& region, double spacing) {
 
 namespace {
 
-/// Top-surface statistics over the column grid (fills the surface fields of @p m).
-void measure_surface(const Particles& p, const LayerRegion& region,
-                     const std::vector<std::uint32_t>& order, LayerMetrics& m) {
+/// The particles that can be the top of a column, copied contiguously for the column loop.
+struct SurfaceCandidates {
+  std::vector<double> x, y, z, r, r2;
+  double r_min = std::numeric_limits<double>::infinity();
+};
+
+/// Particles with their centre at most 3 layer heights up, their top above the substrate and
+/// their disc reaching into the footprint, in @p order.
+SurfaceCandidates surface_candidates(const Particles& p, const LayerRegion& region,
+                                     const std::vector<std::uint32_t>& order) {
   const double z_cut = region.substrate_z + 3.0 * region.layer_height;
   // Particles that can be the top of a column: centre at most 3 layer heights up, top above the
   // substrate, disc reaching into the footprint. Copied contiguously for the column loop.
-  std::vector<double> sx, sy, sz, sr2, sr;
-  double r_min = std::numeric_limits<double>::infinity();
-  double r_max = 0.0;
+  SurfaceCandidates c;
   for (const std::uint32_t i : order) {
     const double r = p.radius[i];
     if (!(r > 0.0) || p.z[i] > z_cut || p.z[i] + r <= region.substrate_z) continue;
     if (p.x[i] + r <= region.x_min || p.x[i] - r >= region.x_max) continue;
     if (p.y[i] + r <= region.y_min || p.y[i] - r >= region.y_max) continue;
-    sx.push_back(p.x[i]);
-    sy.push_back(p.y[i]);
-    sz.push_back(p.z[i]);
-    sr.push_back(r);
-    sr2.push_back(r * r);
-    r_min = std::min(r_min, r);
-    r_max = std::max(r_max, r);
+    c.x.push_back(p.x[i]);
+    c.y.push_back(p.y[i]);
+    c.z.push_back(p.z[i]);
+    c.r.push_back(r);
+    c.r2.push_back(r * r);
+    c.r_min = std::min(c.r_min, r);
   }
-  m.empty_fraction = 1.0;
-  const double spacing = region.grid_spacing > 0.0 ? region.grid_spacing : 0.25 * r_min;
-  if (!(spacing < std::numeric_limits<double>::infinity())) return;  // no spacing, no particle
+  return c;
+}
+
+/// Surface statistics of the column grid (nx by ny) over @p c: the columns covered, and the
+/// mean, sum of squared deviations (Welford) and largest of their heights above the substrate.
+struct SurfaceSums {
+  std::size_t covered = 0;
+  double mean = 0.0, m2 = 0.0, highest = 0.0;
+};
+
+/// Splats every candidate's disc onto the columns under it, one band of rows at a time.
+SurfaceSums splat_heights(const SurfaceCandidates& c, const LayerRegion& region, std::size_t nx,
+                          std::size_t ny) {
+  const std::size_t n = c.x.size();
   const double lx = region.x_max - region.x_min;
   const double ly = region.y_max - region.y_min;
-  const std::size_t nx = column_count(lx, spacing);
-  const std::size_t ny = column_count(ly, spacing);
-  if (static_cast<double>(nx) * static_cast<double>(ny) > kMaxLayerColumns) {
-    throw std::invalid_argument("measure_layer: surface grid too fine");
-  }
-  m.columns = nx * ny;
-  const std::size_t n = sx.size();
-  if (n == 0) return;
-
   // The height map is filled by splatting: each particle visits only the columns under its disc,
   // so the work is the sum of the discs' column counts (not columns times particles per cell).
   // To bound memory the map is held one band of rows at a time; particles are bucketed by the
@@ -339,9 +345,9 @@ void measure_surface(const Particles& p, const LayerRegion& region,
   // Rows (and below, columns) are bracketed from the disc's extent widened by one, and each
   // column is then tested exactly, so rounding in the bracket cannot drop a column.
   const auto row_range = [&](std::size_t k, std::size_t& first, std::size_t& last) {
-    first = interval_of(sy[k] - sr[k], region.y_min, dy_col, ny);
+    first = interval_of(c.y[k] - c.r[k], region.y_min, dy_col, ny);
     first = first > 0 ? first - 1 : 0;
-    last = std::min(interval_of(sy[k] + sr[k], region.y_min, dy_col, ny) + 1, ny - 1);
+    last = std::min(interval_of(c.y[k] + c.r[k], region.y_min, dy_col, ny) + 1, ny - 1);
   };
   std::vector<std::size_t> band_begin(bands + 1, 0);
   std::size_t first = 0, last = 0;
@@ -373,22 +379,22 @@ void measure_surface(const Particles& p, const LayerRegion& region,
       row_range(k, first, last);
       for (std::size_t jy = std::max(first, row0); jy <= std::min(last, row1 - 1); ++jy) {
         const double yc = region.y_min + (static_cast<double>(jy) + 0.5) * dy_col;
-        const double ddy = yc - sy[k];
-        const double half_width_sq = sr2[k] - ddy * ddy;
+        const double ddy = yc - c.y[k];
+        const double half_width_sq = c.r2[k] - ddy * ddy;
         if (half_width_sq < 0.0) continue;
         const double half_width = std::sqrt(half_width_sq);
-        std::size_t ix0 = interval_of(sx[k] - half_width, region.x_min, dx_col, nx);
+        std::size_t ix0 = interval_of(c.x[k] - half_width, region.x_min, dx_col, nx);
         ix0 = ix0 > 0 ? ix0 - 1 : 0;
         const std::size_t ix1 =
-            std::min(interval_of(sx[k] + half_width, region.x_min, dx_col, nx) + 1, nx - 1);
+            std::min(interval_of(c.x[k] + half_width, region.x_min, dx_col, nx) + 1, nx - 1);
         double* row = top.data() + (jy - row0) * nx;
         for (std::size_t ix = ix0; ix <= ix1; ++ix) {
           const double xc = region.x_min + (static_cast<double>(ix) + 0.5) * dx_col;
-          const double ddx = xc - sx[k];
-          const double rest = sr2[k] - ddx * ddx - ddy * ddy;  // the column centre is in the disc
+          const double ddx = xc - c.x[k];
+          const double rest = c.r2[k] - ddx * ddx - ddy * ddy;  // the column centre is in the disc
           if (rest < 0.0) continue;
           // Heights at or below the substrate leave the column empty (the map starts at 0).
-          row[ix] = std::max(row[ix], sz[k] + std::sqrt(rest) - region.substrate_z);
+          row[ix] = std::max(row[ix], c.z[k] + std::sqrt(rest) - region.substrate_z);
         }
       }
     }
@@ -401,6 +407,27 @@ void measure_surface(const Particles& p, const LayerRegion& region,
       highest = std::max(highest, h);
     }
   }
+  return {covered, mean, m2, highest};
+}
+
+/// Top-surface statistics over the column grid (fills the surface fields of @p m).
+void measure_surface(const Particles& p, const LayerRegion& region,
+                     const std::vector<std::uint32_t>& order, LayerMetrics& m) {
+  const SurfaceCandidates c = surface_candidates(p, region, order);
+  m.empty_fraction = 1.0;
+  const double spacing = region.grid_spacing > 0.0 ? region.grid_spacing : 0.25 * c.r_min;
+  if (!(spacing < std::numeric_limits<double>::infinity())) return;  // no spacing, no particle
+  const double lx = region.x_max - region.x_min;
+  const double ly = region.y_max - region.y_min;
+  const std::size_t nx = column_count(lx, spacing);
+  const std::size_t ny = column_count(ly, spacing);
+  if (static_cast<double>(nx) * static_cast<double>(ny) > kMaxLayerColumns) {
+    throw std::invalid_argument("measure_layer: surface grid too fine");
+  }
+  m.columns = nx * ny;
+  if (c.x.empty()) return;
+
+  const auto [covered, mean, m2, highest] = splat_heights(c, region, nx, ny);
   m.covered_columns = covered;
   m.empty_fraction = static_cast<double>(m.columns - covered) / static_cast<double>(m.columns);
   if (covered > 0) {
