@@ -308,11 +308,6 @@ void set_threads(const std::optional<int>& requested) {
   }
 }
 
-/// Threads the run's loops actually use: below kMinParallelParticles particles they run serially.
-int threads_in_use(std::size_t particles) {
-  return particles >= bondem::kMinParallelParticles ? omp_get_max_threads() : 1;
-}
-
 /// A bed measure as printed: its value, or "n/a (why)" when the region is too small to mean
 /// anything.
 std::string measured(const std::optional<double>& value, const bondem::PackingReport& report) {
@@ -328,7 +323,7 @@ int run_run(const RunCommand& o) {
                                                           "<built-in packing case>", o.overrides)
                                      : bondem::load_case(o.case_path, o.overrides);
   if (!o.quiet) {
-    const int threads = threads_in_use(c.particles.size());
+    const int threads = bondem::threads_in_use(c.particles.size());
     std::cerr << "bondem run: " << (o.case_path.empty() ? "built-in packing case" : o.case_path)
               << ", " << c.particles.size() << " particles, " << threads
               << (threads == 1 ? " thread" : " threads");
@@ -352,7 +347,7 @@ int run_run(const RunCommand& o) {
   std::cout << "output_directory = " << directory << "\n"
             << "particles = " << r.particles << "\n"
             << "steps = " << r.steps << "\n"
-            << "threads = " << threads_in_use(r.particles) << "\n"
+            << "threads = " << r.threads << "\n"
             << "wall_time = " << r.wall_seconds << " s\n"
             << "particle_steps_per_second = " << r.particle_steps_per_second << "\n"
             << "neighbor_builds = " << r.neighbor_builds << "\n"

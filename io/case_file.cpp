@@ -12,6 +12,7 @@
 
 #include "solver/analysis/packing.hpp"
 #include "solver/setup/insertion.hpp"
+#include "solver/setup/message_number.hpp"
 
 namespace bondem {
 namespace {
@@ -602,12 +603,6 @@ const ParticleEntry& entry_of(const std::vector<ParticleEntry>& entries, std::si
   return *(after - 1);
 }
 
-std::string number_text(double value) {
-  std::ostringstream text;
-  text << value;
-  return text.str();
-}
-
 /// One check over every initial particle, explicit or inserted, across entries and periodic
 /// boundaries: an overlap deeper than the run's own limit would stop the run at its first step.
 void check_initial_overlaps(const Reader& reader, const Case& c,
@@ -621,14 +616,14 @@ void check_initial_overlaps(const Reader& reader, const Case& c,
   std::string what;
   if (inserted) {
     const Eigen::Vector3d& x = c.particles[overlap->later].position;
-    what = "its particle at [" + number_text(x.x()) + ", " + number_text(x.y()) + ", " +
-           number_text(x.z()) + "] ";
+    what = "its particle at [" + message_number(x.x()) + ", " + message_number(x.y()) + ", " +
+           message_number(x.z()) + "] ";
   }
   what += "overlaps " + (&later == &earlier ? "another particle of " + earlier.key : earlier.key);
   if (overlap->across_boundary) what += " across the periodic boundary";
-  what += " by " + number_text(overlap->fraction) +
+  what += " by " + message_number(overlap->fraction) +
           " of the smaller radius, more than limits.max_overlap_fraction = " +
-          number_text(c.max_overlap_fraction) + " allows (the run would stop at its first step)";
+          message_number(c.max_overlap_fraction) + " allows (the run would stop at its first step)";
   reader.fail(later.node, later.key, what);
 }
 
@@ -637,20 +632,21 @@ void check_periodic_axes(const Reader& reader, const Case& c, const YAML::Node& 
   if (!c.domain || c.particles.empty()) return;
   double max_radius = 0.0;
   for (const ParticleSpec& p : c.particles) max_radius = std::max(max_radius, p.radius);
-  const double skin = c.skin > 0.0 ? c.skin : 0.2 * max_radius;  // as build_scene
+  const double skin = verlet_skin(c, max_radius);
   const double cell = 2.0 * max_radius + skin;
   const Eigen::Vector3d length = c.domain->length();
   for (int a = 0; a < 3; ++a) {
     if (!c.domain->periodic[a] || std::floor(length[a] / cell) >= 3.0) continue;
     std::string what = std::string("periodic axis ") + "xyz"[a] + " of length " +
-                       number_text(length[a]) + " m is shorter than three neighbor cells of " +
-                       number_text(cell) + " m (largest diameter " + number_text(2.0 * max_radius) +
-                       " m + skin " + number_text(skin) + " m)";
+                       message_number(length[a]) + " m is shorter than three neighbor cells of " +
+                       message_number(cell) + " m (largest diameter " +
+                       message_number(2.0 * max_radius) + " m + skin " + message_number(skin) +
+                       " m)";
     if (c.skin > 0.0) {  // given, in the file or by --set
       const YAML::Node skin_node = root["neighbors"]["skin"];
       const double room = length[a] / 3.0 - 2.0 * max_radius;
       reader.fail(skin_node, "neighbors.skin",
-                  what + (room > 0.0 ? "; the skin must be below " + number_text(room) + " m"
+                  what + (room > 0.0 ? "; the skin must be below " + message_number(room) + " m"
                                      : "; enlarge the domain"));
     }
     reader.fail(root["domain"]["periodic"], "domain.periodic", what + "; enlarge the domain");
@@ -684,17 +680,17 @@ void read_insertions(const Reader& reader, Case& c, const YAML::Node& insert,
         const double total = counts[0] * counts[1] * counts[2];
         if (!(total <= kMaxInsertedParticles)) {
           reader.fail(spacing_node, path + ".spacing",
-                      "gives " + number_text(counts[0]) + " x " + number_text(counts[1]) + " x " +
-                          number_text(counts[2]) + " = " + number_text(total) +
+                      "gives " + message_number(counts[0]) + " x " + message_number(counts[1]) +
+                          " x " + message_number(counts[2]) + " = " + message_number(total) +
                           " particles, more than the limit of " +
-                          number_text(kMaxInsertedParticles) + " per insertion");
+                          message_number(kMaxInsertedParticles) + " per insertion");
         }
         const double overlap = (2.0 * radius - spacing) / radius;
         if (std::max({counts[0], counts[1], counts[2]}) > 1.0 && overlap > c.max_overlap_fraction) {
           reader.fail(spacing_node, path + ".spacing",
-                      "neighbors of the lattice overlap by " + number_text(overlap) +
+                      "neighbors of the lattice overlap by " + message_number(overlap) +
                           " of their radius, more than limits.max_overlap_fraction = " +
-                          number_text(c.max_overlap_fraction) +
+                          message_number(c.max_overlap_fraction) +
                           " allows (the run would stop at its first step)");
         }
         added = insert_lattice(region, spacing, radius, material_index(reader, c, body, path));

@@ -1,6 +1,5 @@
 #include "io/run.hpp"
 
-#include <omp.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -28,6 +27,7 @@
 #include "solver/engine/scene.hpp"
 #include "solver/engine/stepper.hpp"
 #include "solver/experiments/calculator.hpp"
+#include "solver/setup/message_number.hpp"
 
 namespace bondem {
 namespace {
@@ -37,13 +37,6 @@ std::string exact(double value) {
   char buffer[32];
   std::snprintf(buffer, sizeof buffer, "%.17g", value);
   return buffer;
-}
-
-/// A value for a message: six significant digits, as the rest of the messages print them.
-std::string readable(double value) {
-  std::ostringstream text;
-  text << value;
-  return text.str();
 }
 
 /// @p history (a checkpoint's history.csv text) without its last row when that row is the end
@@ -483,10 +476,10 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
   // In double first: the ratio of a long end and a tiny step does not fit any integer.
   const double step_ratio = description.end_time / description.time_step;
   if (!(step_ratio <= kMaxSteps)) {
-    throw CaseError(description.source + ": 'time.end': " + readable(description.end_time) +
-                    " s is " + readable(step_ratio) + " steps of time.step " +
-                    readable(description.time_step) + " s, more than the limit of " +
-                    readable(kMaxSteps) + " steps");
+    throw CaseError(description.source + ": 'time.end': " + message_number(description.end_time) +
+                    " s is " + message_number(step_ratio) + " steps of time.step " +
+                    message_number(description.time_step) + " s, more than the limit of " +
+                    message_number(kMaxSteps) + " steps");
   }
   const auto steps = static_cast<std::int64_t>(std::llround(step_ratio));
   // An interval at least as long as the run means "at the end only" (the end is always written);
@@ -521,9 +514,10 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
                       misfit);
     }
     if (steps <= restored.stepper.step) {
-      throw CaseError(description.source + ": 'time.end': " + readable(description.end_time) +
+      throw CaseError(description.source + ": 'time.end': " + message_number(description.end_time) +
                       " s is not after the time of the checkpoint " + options.restart_path + ", " +
-                      readable(restored.stepper.time) + " s: raise time.end to continue the run");
+                      message_number(restored.stepper.time) +
+                      " s: raise time.end to continue the run");
     }
     scene.particles = std::move(restored.particles);
     stepper_storage.emplace(scene, restored.stepper);
@@ -692,7 +686,7 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
   RunResult result;
   result.steps = steps - first_step;
   result.particles = n;
-  result.threads = omp_get_max_threads();
+  result.threads = threads_in_use(n);
   result.wall_seconds = wall_seconds;
   result.particle_steps_per_second =
       wall_seconds > 0.0 ? static_cast<double>(result.steps) * static_cast<double>(n) / wall_seconds

@@ -50,7 +50,7 @@ struct ThermalReport {
 struct RunResult {
   std::int64_t steps = 0;
   std::size_t particles = 0;
-  int threads = 1;
+  int threads = 1;  ///< threads the loops used (1 below kMinParallelParticles particles)
   double wall_seconds = 0.0;
   double particle_steps_per_second = 0.0;
   std::int64_t neighbor_builds = 0;

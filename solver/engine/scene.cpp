@@ -44,7 +44,7 @@ Scene build_scene(const Case& description) {
   double max_radius = 0.0;
   for (const ParticleSpec& spec : description.particles)
     max_radius = std::max(max_radius, spec.radius);
-  scene.skin = description.skin > 0.0 ? description.skin : 0.2 * max_radius;
+  scene.skin = verlet_skin(description, max_radius);
   scene.reorder_interval = description.reorder_interval;
   scene.max_overlap_fraction = description.max_overlap_fraction;
   if (description.domain) {

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <iomanip>
 #include <limits>
 #include <numbers>
 #include <sstream>
@@ -10,6 +9,7 @@
 
 #include "solver/engine/scene.hpp"
 #include "solver/models/pair.hpp"
+#include "solver/setup/message_number.hpp"
 
 namespace bondem {
 
@@ -75,7 +75,8 @@ double hertz_restitution(double damping_ratio) {
 
 double recommended_time_step(double contact_time, double bond_period, double rayleigh,
                              double damper_step) {
-  return std::min({contact_time / 50.0, bond_period / 50.0, 0.2 * rayleigh, damper_step});
+  return std::min({contact_time / kStepsPerOscillation, bond_period / kStepsPerOscillation,
+                   kRayleighStepFraction * rayleigh, damper_step});
 }
 
 PairReport compute_pair_report(const Case& description, int material_a, double radius_a,
@@ -185,18 +186,11 @@ std::size_t fastest_particle(const Case& c) {
   return fastest;
 }
 
-/// A number for messages, six significant digits.
-std::string shortest_number(double value) {
-  std::ostringstream out;
-  out << std::setprecision(6) << value;
-  return out.str();
-}
-
 /// Refuses a speed that is not finite or beyond the speed of light (no physical input gives one,
 /// and the Hertz quantities of v^2 overflow further up), naming the particle or tool behind it.
 void require_physical_speeds(const Case& c) {
   const auto refuse = [&](const std::string& what, double speed) {
-    throw std::invalid_argument(c.source + ": " + what + " moves at " + shortest_number(speed) +
+    throw std::invalid_argument(c.source + ": " + what + " moves at " + message_number(speed) +
                                 " m/s, which is not physical (above the speed of light)");
   };
   if (!c.particles.empty()) {
@@ -265,16 +259,16 @@ TimeStepLimit case_time_step_bound(const Case& c) {
       const PairReport r = compute_pair_report(c, static_cast<int>(a), smallest[a],
                                                static_cast<int>(b), smallest[b], speed);
       const std::string pair = " of [" + name_of(a) + " " + name_of(b) + "]";
-      tighten(limit, r.contact_time / 50.0,
-              "t_contact/50 of a Hertz impact at " + shortest_number(speed) + " m/s" + pair);
-      tighten(limit, r.bond_period / 50.0, "T_bond/50" + pair);
-      tighten(limit, 0.2 * r.rayleigh_time, "0.2 T_Rayleigh" + pair);
+      tighten(limit, r.contact_time / kStepsPerOscillation,
+              "t_contact/50 of a Hertz impact at " + message_number(speed) + " m/s" + pair);
+      tighten(limit, r.bond_period / kStepsPerOscillation, "T_bond/50" + pair);
+      tighten(limit, kRayleighStepFraction * r.rayleigh_time, "0.2 T_Rayleigh" + pair);
       tighten(limit, r.contact_damper_step,
               "the stability of the contact damper (contact.damping_ratio = " +
-                  shortest_number(c.contact_damping) + ")" + pair);
+                  message_number(c.contact_damping) + ")" + pair);
       tighten(limit, r.bond_damper_step,
               "the stability of the bond damper (bond.damping_ratio = " +
-                  shortest_number(c.bond.damping_ratio) + ")" + pair);
+                  message_number(c.bond.damping_ratio) + ")" + pair);
     }
   }
   // Walls and tools: a sphere of infinite radius and mass, r* = r and m* = m.
@@ -288,7 +282,7 @@ TimeStepLimit case_time_step_bound(const Case& c) {
       const double stiffness = 2.0 * e_star * std::sqrt(r * hertz_max_overlap(e_star, r, m, speed));
       tighten(limit, damper_time_step(stiffness, m, coefficients.contact_damping),
               "the stability of the contact damper (contact.damping_ratio = " +
-                  shortest_number(c.contact_damping) + ") of [" + name_of(a) + "] on " + what);
+                  message_number(c.contact_damping) + ") of [" + name_of(a) + "] on " + what);
     }
   };
   for (const PlaneWall& wall : c.walls) surface(wall.material, "wall '" + wall.name + "'");
@@ -297,14 +291,13 @@ TimeStepLimit case_time_step_bound(const Case& c) {
     const double tool_speed = tool_surface_speed(tool);
     if (tool_speed > 0.0 && std::isfinite(smallest_radius)) {
       tighten(limit, kMaxToolStepFraction * smallest_radius / tool_speed,
-              "tool '" + tool.name + "' at " + shortest_number(tool_speed) +
-                  " m/s moving at most " + shortest_number(kMaxToolStepFraction) +
-                  " of the smallest radius per step");
+              "tool '" + tool.name + "' at " + message_number(tool_speed) + " m/s moving at most " +
+                  message_number(kMaxToolStepFraction) + " of the smallest radius per step");
     }
   }
   if (!(limit.step > 0.0) || std::isnan(limit.step)) {
     throw std::invalid_argument(c.source + ": the time-step limit (" + limit.cause + ") is " +
-                                shortest_number(limit.step) +
+                                message_number(limit.step) +
                                 ", not a usable number: check the materials' density and "
                                 "youngs_modulus, the radii and the damping ratios");
   }

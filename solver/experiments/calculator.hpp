@@ -78,6 +78,12 @@ struct PairReport {
 /// Steps per contact below which a time step is reported as too coarse.
 inline constexpr double kMinStepsPerContact = 30.0;
 
+/// Steps that resolve a Hertz impact or a bond oscillation in the recommended time step.
+inline constexpr double kStepsPerOscillation = 50.0;
+
+/// Fraction of the Rayleigh time allowed as the recommended time step.
+inline constexpr double kRayleighStepFraction = 0.2;
+
 /// The recommended time step: min(t_contact / 50, T_bond / 50, 0.2 T_Rayleigh, damper limit).
 /// Fifty steps resolve a Hertz impact (and a bond oscillation) to well under 1 % in overlap;
 /// 0.2 T_Rayleigh is the usual DEM bound for dense packings where waves cross many contacts;

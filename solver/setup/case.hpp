@@ -100,4 +100,10 @@ struct Case {
   PairCoefficients pair_coefficients(int a, int b) const;
 };
 
+/// Verlet skin of case @p c whose largest radius is @p max_radius: neighbors.skin, or by default
+/// 0.2 of that radius.
+inline double verlet_skin(const Case& c, double max_radius) {
+  return c.skin > 0.0 ? c.skin : 0.2 * max_radius;
+}
+
 }  // namespace bondem

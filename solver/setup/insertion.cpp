@@ -557,8 +557,9 @@ std::optional<InitialOverlap> find_initial_overlap(const std::vector<ParticleSpe
     home[0] = cell_of[i] % cells[0];
     home[1] = cell_of[i] / cells[0] % cells[1];
     home[2] = cell_of[i] / (cells[0] * cells[1]);
-    // Cells to visit per axis: the neighbors, wrapped on periodic axes, each once.
-    std::array<std::vector<std::size_t>, 3> visit;
+    // Cells to visit per axis: the neighbors, wrapped on periodic axes, each once (at most 3).
+    std::array<std::array<std::size_t, 3>, 3> visit{};
+    std::array<std::size_t, 3> visits{};
     for (std::size_t a = 0; a < 3; ++a) {
       const std::size_t count = cells[a];
       for (int offset = -1; offset <= 1; ++offset) {
@@ -571,16 +572,16 @@ std::optional<InitialOverlap> find_initial_overlap(const std::vector<ParticleSpe
         } else {
           continue;
         }
-        if (std::find(visit[a].begin(), visit[a].end(), cell) == visit[a].end()) {
-          visit[a].push_back(cell);
-        }
+        const auto listed = visit[a].begin() + static_cast<std::ptrdiff_t>(visits[a]);
+        if (std::find(visit[a].begin(), listed, cell) == listed) visit[a][visits[a]++] = cell;
       }
     }
     std::optional<InitialOverlap> found;
-    for (const std::size_t z : visit[2]) {
-      for (const std::size_t y : visit[1]) {
-        for (const std::size_t x : visit[0]) {
-          const std::size_t cell = (z * cells[1] + y) * cells[0] + x;
+    for (std::size_t vz = 0; vz < visits[2]; ++vz) {
+      for (std::size_t vy = 0; vy < visits[1]; ++vy) {
+        for (std::size_t vx = 0; vx < visits[0]; ++vx) {
+          const std::size_t cell =
+              (visit[2][vz] * cells[1] + visit[1][vy]) * cells[0] + visit[0][vx];
           for (std::size_t k = begin[cell]; k < begin[cell + 1]; ++k) {
             const std::size_t j = items[k];
             if (j >= i) break;  // index order within a cell: only earlier particles
