@@ -143,19 +143,6 @@ void write_final_state(const Particles& p, const std::string& path,
   file.commit();
 }
 
-/// Copies into @p to the fields write_final_state reads (ids, positions, velocities, radii): the
-/// last good state kept for a blow-up, at about a third of the memory of a full copy.
-void keep_last_good(const Particles& from, Particles& to) {
-  to.id = from.id;
-  to.x = from.x;
-  to.y = from.y;
-  to.z = from.z;
-  to.vx = from.vx;
-  to.vy = from.vy;
-  to.vz = from.vz;
-  to.radius = from.radius;
-}
-
 /// What in @p restored does not fit @p scene ("" when all fits): a checkpoint that passes its
 /// checksum and fingerprint may still be forged, and the stepper indexes by these sizes.
 std::string checkpoint_misfit(const Checkpoint& restored, const Scene& scene,
@@ -423,8 +410,7 @@ class VtkObserver {
     list.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
       // The end points are written to the file: the image of j is formed as a point first.
       const Eigen::Vector3d first(p.x[i], p.y[i], p.z[i]);
-      const Eigen::Vector3d second =
-          Eigen::Vector3d(p.x[j], p.y[j], p.z[j]) + list.shifts[list.image[k]];
+      const Eigen::Vector3d second = Eigen::Vector3d(p.x[j], p.y[j], p.z[j]) + list.shift(k);
       const Eigen::Vector3d d = second - first;
       const double overlap = p.radius[i] + p.radius[j] - d.norm();
       if (overlap <= 0.0) return;
@@ -691,7 +677,7 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
   result.particle_steps_per_second =
       wall_seconds > 0.0 ? static_cast<double>(result.steps) * static_cast<double>(n) / wall_seconds
                          : 0.0;
-  result.neighbor_builds = stepper.neighbors().builds;
+  result.neighbor_builds = stepper.neighbors().build_count();
   result.contacts = stepper.contacts();
   double max_radius = 0.0;
   for (const double r : scene.particles.radius) max_radius = std::max(max_radius, r);

@@ -116,8 +116,8 @@ TEST(TangentialHistory, SameWithAndWithoutReorderingAndRebuilds) {
     a.step();
     b.step();
   }
-  EXPECT_GT(a.neighbors().builds, 5);
-  EXPECT_EQ(b.neighbors().builds, 1);
+  EXPECT_GT(a.neighbors().build_count(), 5);
+  EXPECT_EQ(b.neighbors().build_count(), 1);
   std::vector<std::size_t> index_of(unsorted.particles.size());
   for (std::size_t k = 0; k < unsorted.particles.size(); ++k) {
     index_of[static_cast<std::size_t>(unsorted.particles.id[k])] = k;

@@ -268,7 +268,7 @@ TEST(ThermalConservation, ClosedBedKeepsItsHeat) {
   // The test means something only if contacts came and went and heat really flowed.
   EXPECT_GT(seen.size(), 3 * contacts0.size() + 100) << "contacts must change";
   EXPECT_LT(temperature_spread(p), 0.9 * spread0) << "heat must flow";
-  EXPECT_GT(stepper.neighbors().builds, 2);
+  EXPECT_GT(stepper.neighbors().build_count(), 2);
   // Every contact's flux enters one particle and leaves the other, so only rounding changes
   // sum C T: each step rounds each T update (<= 1 ulp of T ~ 1.1e-16 relative), the per-particle
   // flux sums and C (1/C) ~ 1 (a few ulps of the small exchanged heat) and the content sum itself
@@ -663,7 +663,7 @@ ThermalSnapshot run_with_threads(const Case& c, int threads, int steps) {
           stepper.pair_forces().bonded,
           stepper.bonds_formed(),
           stepper.bonds_broken(),
-          stepper.neighbors().builds,
+          stepper.neighbors().build_count(),
           stepper.laser_energy(),
           stepper.laser_missed()};
 }

@@ -68,6 +68,12 @@ class NeighborList {
     return {p.x[j] - p.x[i] + s.x(), p.y[j] - p.y[i] + s.y(), p.z[j] - p.z[i] + s.z()};
   }
 
+  /// Offset to add to x_j - x_i for pair k (its periodic image of j).
+  const Eigen::Vector3d& shift(std::uint32_t k) const { return shifts[image[k]]; }
+
+  /// Number of builds so far (restored ones included).
+  std::int64_t build_count() const { return builds; }
+
   std::vector<std::uint32_t>
       row_begin;  ///< size n + 1: pairs of particle i are [row_begin[i], row_begin[i+1])
   std::vector<std::uint32_t> second;        ///< j of each pair
