@@ -1,6 +1,7 @@
 #pragma once
 /// @file run.hpp
-/// A whole run: case -> scene -> stepper, with the observers that write its outputs.
+/// A whole run: case -> scene -> stepper -> Simulation, with the observers that write its outputs
+/// (io/run_observers.hpp) and measure its end (solver/driver/run_analysis.hpp).
 
 #include <csignal>
 #include <cstdint>
@@ -12,7 +13,7 @@
 
 #include "solver/analysis/layer_metrics.hpp"
 #include "solver/analysis/packing.hpp"
-#include "solver/analysis/track_metrics.hpp"
+#include "solver/driver/run_analysis.hpp"
 #include "solver/engine/contact_kernel.hpp"
 #include "solver/setup/case.hpp"
 
@@ -37,16 +38,6 @@ class RunInterrupted : public std::runtime_error {
 };
 
 /// What a finished run reports.
-/// Heat and bonding of a thermal run.
-struct ThermalReport {
-  double laser_energy = 0.0;                ///< absorbed by the particles [J]
-  double laser_missed = 0.0;                ///< absorbable energy that fell on no particle [J]
-  double final_max_temperature = 0.0;       ///< [K]
-  double threshold = 0.0;                   ///< temperature that defines the heat-affected band [K]
-  TrackReport track;                        ///< band along the laser path, peak temperature
-  std::size_t clusters_of_two_or_more = 0;  ///< bonded agglomerates at the end
-};
-
 struct RunResult {
   std::int64_t steps = 0;
   std::size_t particles = 0;

@@ -1,0 +1,112 @@
+#pragma once
+/// @file run_observers.hpp
+/// The observers of a run that write its files: history.csv, last_good_state.csv, the VTK series,
+/// checkpoint.bin and the end-of-run files.
+
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "io/vtk_output.hpp"
+#include "solver/driver/history.hpp"
+#include "solver/driver/run_analysis.hpp"
+#include "solver/driver/simulation.hpp"
+
+namespace bondem {
+
+/// One row per particle sorted by id (id, x, y, z, vx, vy, vz, radius, 17 significant digits),
+/// written atomically to @p path; with @p bonds (one count per particle) a thermal set adds
+/// temperature, peak_temperature and bonds.
+void write_final_state(const Particles& p, const std::string& path,
+                       const std::vector<int>& bonds = {});
+
+/// history.csv, live: truncated when opened, then appended and flushed piece by piece, so that a
+/// run can be watched (and plotted) while it runs. Feed it as History's sink.
+class HistoryFile {
+ public:
+  explicit HistoryFile(std::string path);
+  /// Append @p text and flush. Throws std::runtime_error naming the file on a write failure.
+  void append(const std::string& text);
+
+ private:
+  std::string path_;
+  std::ofstream stream_;
+};
+
+/// The last state known to be sound (positions, velocities, radii, ids): the state of the
+/// history's latest row, or the state at construction before the first. Written to @p path when
+/// the run blows up.
+class LastGoodFile : public Observer {
+ public:
+  LastGoodFile(std::string path, const Particles& particles, const History& history);
+  void after_step(const Simulation& simulation) override;
+  void interrupted(const Simulation& simulation, const Interruption& why) override;
+
+ private:
+  std::string path_;
+  const History& history_;
+  Particles state_;
+};
+
+/// VTK frames (particles with coordination and bond count, contacts, walls, tools) at step 0,
+/// every @p every steps and at the end, plus one at a stop request off that grid (a restart drops
+/// it).
+class VtkFrames : public Observer {
+ public:
+  VtkFrames(const std::filesystem::path& directory, std::int64_t every);
+
+  /// Continue the series of an interrupted run from the checkpoint at @p checkpoint_step: keep
+  /// the frames an uninterrupted run writes up to it, drop the rest (the frame written at an
+  /// interruption, frames past the checkpoint).
+  void resume(const Scene& scene, std::int64_t checkpoint_step, double time_step);
+
+  void start(const Simulation& simulation) override;
+  void after_step(const Simulation& simulation) override;
+  void interrupted(const Simulation& simulation, const Interruption& why) override;
+
+ private:
+  void write(const Scene& scene, const Stepper& stepper);
+
+  std::int64_t every_;
+  VtkSeriesWriter writer_;
+  std::vector<double> coordination_, bond_count_;
+  std::vector<ContactRecord> contacts_;
+};
+
+/// checkpoint.bin (particles, stepper state, the history's text, the case fingerprint) every
+/// @p every steps, at a stop request and at the end; nothing on a blow-up.
+class CheckpointFile : public Observer {
+ public:
+  CheckpointFile(std::string path, std::uint64_t fingerprint, std::int64_t every,
+                 const History& history);
+  void after_step(const Simulation& simulation) override;
+  void interrupted(const Simulation& simulation, const Interruption& why) override;
+  void finish(const Simulation& simulation) override;
+
+ private:
+  void write(const Simulation& simulation) const;
+
+  std::string path_;
+  std::uint64_t fingerprint_;
+  std::int64_t every_;
+  const History& history_;
+};
+
+/// The end-of-run files in @p directory: final_state.csv, clusters.csv and, with a layer,
+/// layer.csv, from @p analysis's figures (attach it after the analysis and the checkpoint: none
+/// of them appears without the checkpoint of its state). They appear together or not at all. At a
+/// stop request, final_state.csv alone.
+class EndOfRunFiles : public Observer {
+ public:
+  EndOfRunFiles(std::filesystem::path directory, const RunAnalysis& analysis);
+  void interrupted(const Simulation& simulation, const Interruption& why) override;
+  void finish(const Simulation& simulation) override;
+
+ private:
+  std::filesystem::path directory_;
+  const RunAnalysis& analysis_;
+};
+
+}  // namespace bondem

@@ -1,0 +1,121 @@
+#include "solver/driver/history.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+namespace bondem {
+
+std::string exact_text(double value) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.17g", value);
+  return buffer;
+}
+
+std::vector<HistoryColumn> history_columns(const Scene& scene, const Stepper& stepper,
+                                           const std::vector<Eigen::Vector3d>& loads) {
+  const auto count = [](auto n) { return static_cast<double>(n); };
+  std::vector<HistoryColumn> columns{
+      {"time", "s", [&] { return stepper.time(); }},
+      {"kinetic_energy", "J", [&] { return stepper.kinetic_energy(); }},
+      {"rotational_energy", "J", [&] { return stepper.rotational_energy(); }},
+      {"contacts", "", [&, count] { return count(stepper.contacts().contacts); }},
+      {"bonds", "", [&, count] { return count(stepper.contacts().bonds); }},
+      {"bonds_formed", "", [&, count] { return count(stepper.bonds_formed()); }},
+      {"bonds_broken", "", [&, count] { return count(stepper.bonds_broken()); }},
+      {"wall_contacts", "", [&, count] { return count(stepper.contacts().wall_contacts); }},
+      {"max_overlap", "m", [&] { return stepper.contacts().max_overlap; }}};
+  if (scene.particles.thermal()) {
+    const std::vector<double>& t = scene.particles.temperature;
+    columns.push_back(
+        {"max_temperature", "K", [&t] { return *std::max_element(t.begin(), t.end()); }});
+    columns.push_back({"mean_temperature", "K", [&t] {
+                         double sum = 0.0;
+                         for (const double value : t) sum += value;  // index order: any threads
+                         return sum / static_cast<double>(t.size());
+                       }});
+    columns.push_back({"laser_energy", "J", [&] { return stepper.laser_energy(); }});
+  }
+  // The force the particles exert on each wall, then each tool.
+  std::vector<std::string> names;
+  for (const PlaneWall& wall : scene.walls) names.push_back(wall.name);
+  for (const Body& body : scene.bodies) names.push_back(body.name);
+  for (std::size_t k = 0; k < names.size(); ++k) {
+    for (const int axis : {0, 1, 2}) {
+      columns.push_back({"load_" + names[k] + "_" + "xyz"[axis], "N",
+                         [&loads, k, axis] { return loads[k][axis]; }});
+    }
+  }
+  return columns;
+}
+
+std::string history_header(const std::vector<HistoryColumn>& columns) {
+  std::string header;
+  for (const HistoryColumn& column : columns) header += (header.empty() ? "" : ",") + column.name;
+  return header + '\n';
+}
+
+History::History(const Scene& scene, const Stepper& stepper, std::int64_t every, Sink sink)
+    : columns_(history_columns(scene, stepper, loads_)),
+      every_(every),
+      sink_(std::move(sink)),
+      text_(history_header(columns_)) {}
+
+void History::start(const Simulation& simulation) {
+  if (sink_) sink_(text_);
+  if (simulation.step() == 0) record(simulation);
+}
+
+void History::after_step(const Simulation& simulation) {
+  if (every_or_last(simulation, every_)) record(simulation);
+}
+
+namespace {
+
+/// The BlowUpError of a history value that is not finite (@p non_finite: "column = value unit"),
+/// naming the fastest particle, since a total overflows first where one particle runs away.
+BlowUpError non_finite_history(const Simulation& simulation, const std::string& non_finite) {
+  std::ostringstream message;
+  message << "step " << simulation.step() << " (t = " << simulation.stepper().time()
+          << " s): history value " << non_finite;
+  const Particles& p = simulation.scene().particles;
+  std::size_t fastest = 0;
+  double fastest_speed_sq = -1.0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const double speed_sq = p.vx[i] * p.vx[i] + p.vy[i] * p.vy[i] + p.vz[i] * p.vz[i];
+    if (speed_sq > fastest_speed_sq || (std::isnan(speed_sq) && !std::isnan(fastest_speed_sq))) {
+      fastest = i;
+      fastest_speed_sq = speed_sq;
+    }
+  }
+  if (p.size() > 0) {
+    message << "; fastest particle id " << p.id[fastest] << " at " << std::sqrt(fastest_speed_sq)
+            << " m/s";
+  }
+  return BlowUpError(message.str(), BlowUpCause::kHistory);
+}
+
+}  // namespace
+
+void History::record(const Simulation& simulation) {
+  loads_ = simulation.stepper().wall_forces();
+  std::ostringstream row;
+  std::string non_finite;  // the first column that is not finite
+  for (const HistoryColumn& column : columns_) {
+    const double value = column.value();
+    row << (&column == &columns_.front() ? "" : ",") << exact_text(value);
+    if (non_finite.empty() && !std::isfinite(value)) {
+      non_finite =
+          column.name + " = " + exact_text(value) + (*column.unit ? " " : "") + column.unit;
+    }
+  }
+  row << '\n';
+  if (!non_finite.empty()) throw non_finite_history(simulation, non_finite);
+  const std::string line = row.str();
+  text_ += line;
+  last_row_step_ = simulation.step();
+  if (sink_) sink_(line);
+}
+
+}  // namespace bondem

@@ -1,0 +1,73 @@
+#pragma once
+/// @file history.hpp
+/// The history of a run: its columns, declared once, and the observer that writes its rows.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "solver/driver/simulation.hpp"
+
+namespace bondem {
+
+/// Shortest exact text of a double ("%.17g"): the same bits always give the same bytes, and the
+/// text reads back as the same double.
+std::string exact_text(double value);
+
+/// One column of the history: its name, its unit, and how to read it from the run.
+struct HistoryColumn {
+  std::string name;
+  const char* unit;  ///< "" for counts
+  std::function<double()> value;
+};
+
+/// The columns of the history, declared once: the header and every row come from this list.
+/// Counts are exact in a double (below 2^53) and print as integers. @p loads must hold the wall
+/// and tool loads of the row being written (Stepper::wall_forces(), read once per row).
+std::vector<HistoryColumn> history_columns(const Scene& scene, const Stepper& stepper,
+                                           const std::vector<Eigen::Vector3d>& loads);
+
+/// The header line of the history (column names, comma-separated, newline-terminated).
+std::string history_header(const std::vector<HistoryColumn>& columns);
+
+/// Records a row of every column at the first state (step 0 only: a restart has its rows), every
+/// @p every steps and at the last step. Keeps the whole text (what a checkpoint carries) and
+/// passes each piece to a sink as it is written (history.csv, live). A value that is not finite
+/// is a blow-up: its row is not written and BlowUpError (kHistory) names the column and the
+/// fastest particle.
+class History : public Observer {
+ public:
+  /// Receives the text as it grows: at start() the text so far, then each row.
+  using Sink = std::function<void(const std::string& text)>;
+
+  /// Columns of @p scene stepped by @p stepper; the text starts with the header.
+  History(const Scene& scene, const Stepper& stepper, std::int64_t every, Sink sink = {});
+
+  /// Continue @p text (a restarted run's history, header included) instead of the header alone.
+  void continue_from(std::string text) { text_ = std::move(text); }
+
+  /// The header and every row so far.
+  const std::string& text() const { return text_; }
+  /// The step of the last row written (-1 before the first).
+  std::int64_t last_row_step() const { return last_row_step_; }
+  /// The columns, in order.
+  const std::vector<HistoryColumn>& columns() const { return columns_; }
+
+  void start(const Simulation& simulation) override;
+  void after_step(const Simulation& simulation) override;
+
+ private:
+  /// Append the row of the current state. Throws BlowUpError on a value that is not finite.
+  void record(const Simulation& simulation);
+
+  std::vector<Eigen::Vector3d> loads_;  ///< of the row being written; the columns read it
+  std::vector<HistoryColumn> columns_;
+  std::int64_t every_;
+  Sink sink_;
+  std::string text_;
+  std::int64_t last_row_step_ = -1;
+};
+
+}  // namespace bondem

@@ -1,0 +1,102 @@
+#include "solver/driver/run_analysis.hpp"
+
+#include <algorithm>
+#include <cstdint>
+#include <utility>
+
+namespace bondem {
+
+std::vector<int> bond_counts(const Particles& p, const Stepper& stepper) {
+  std::vector<int> counts(p.size(), 0);
+  const NeighborList& list = stepper.neighbors();
+  list.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
+    if (stepper.pair_forces().bonded[k] == 0) return;
+    ++counts[i];
+    ++counts[j];
+  });
+  return counts;
+}
+
+namespace {
+
+/// Solid fraction and coordination in the case's region, or in the bed below its surface.
+void measure_packing(const Case& description, const Scene& scene, const Stepper& stepper,
+                     RunFigures& figures) {
+  double max_radius = 0.0;
+  for (const double r : scene.particles.radius) max_radius = std::max(max_radius, r);
+  figures.packing_region =
+      description.analysis_region
+          ? *description.analysis_region
+          : bed_region(scene.particles, Box{scene.domain.min, scene.domain.max}, 4.0 * max_radius);
+  figures.packing =
+      analyse_packing(scene.particles, stepper.neighbors(), figures.packing_region, scene.domain);
+}
+
+/// Clusters: bonded agglomerates of two or more particles, and their size distribution against
+/// the primary particles'. Particles with no bond are counted apart, as unbonded.
+void measure_clusters(const Particles& p, const Stepper& stepper, RunFigures& figures) {
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> bonded;
+  stepper.neighbors().for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
+    if (stepper.pair_forces().bonded[k] != 0) {
+      bonded.emplace_back(static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j));
+    }
+  });
+  figures.clusters = find_clusters(p, bonded);
+  std::vector<double> primary, agglomerates;
+  for (const double r : p.radius) primary.push_back(2.0 * r);
+  const ClusterReport& clusters = figures.clusters;
+  for (std::size_t k = 0; k < clusters.sizes.size(); ++k) {
+    if (clusters.sizes[k] < 2) {
+      ++figures.unbonded;
+      continue;
+    }
+    figures.largest_cluster = std::max(figures.largest_cluster, clusters.sizes[k]);
+    agglomerates.push_back(clusters.volume_equivalent_diameters[k]);
+  }
+  figures.agglomerates = agglomerates.size();
+  figures.primary_sizes = size_quantiles(primary);
+  figures.cluster_sizes = size_quantiles(agglomerates);
+}
+
+/// Heat received and the heat-affected band: particles that reached the bonding temperature (or,
+/// without that criterion, the hottest tenth of the temperature rise).
+ThermalReport measure_heat(const Case& description, const Particles& p, const Stepper& stepper,
+                           std::size_t agglomerates) {
+  ThermalReport thermal;
+  thermal.laser_energy = stepper.laser_energy();
+  thermal.laser_missed = stepper.laser_missed();
+  thermal.final_max_temperature = *std::max_element(p.temperature.begin(), p.temperature.end());
+  thermal.clusters_of_two_or_more = agglomerates;
+  double threshold = description.bond.temperature;
+  if (description.bond.criterion != BondCriterion::kTemperature) {
+    const double initial = description.thermal->initial_temperature;
+    double peak = initial;
+    for (const double t : p.peak_temperature) peak = std::max(peak, t);
+    threshold = initial + 0.9 * (peak - initial);
+  }
+  thermal.threshold = threshold;
+  if (description.laser) {
+    thermal.track = measure_track(p, *description.laser, threshold);
+  } else {
+    for (const double t : p.peak_temperature) {
+      thermal.track.peak_temperature = std::max(thermal.track.peak_temperature, t);
+    }
+  }
+  return thermal;
+}
+
+}  // namespace
+
+RunFigures analyse_run(const Case& description, const Simulation& simulation) {
+  const Scene& scene = simulation.scene();
+  const Stepper& stepper = simulation.stepper();
+  const Particles& p = scene.particles;
+  RunFigures figures;
+  measure_packing(description, scene, stepper, figures);
+  measure_clusters(p, stepper, figures);
+  if (p.thermal()) figures.thermal = measure_heat(description, p, stepper, figures.agglomerates);
+  if (description.layer) figures.layer = measure_layer(p, *description.layer);
+  return figures;
+}
+
+}  // namespace bondem

@@ -1,0 +1,59 @@
+#include "solver/driver/simulation.hpp"
+
+#include <chrono>
+
+namespace bondem {
+
+Simulation::Simulation(const Scene& scene, Stepper& stepper, std::int64_t last_step)
+    : scene_(scene), stepper_(stepper), last_step_(last_step) {}
+
+void Simulation::interrupt(const Interruption& why) const {
+  for (Observer* observer : observers_) observer->interrupted(*this, why);
+}
+
+RunEnd Simulation::run() {
+  using Clock = std::chrono::steady_clock;
+  RunEnd end;
+  end.first_step = step();
+  // A blow-up is an ending like the others: every observer hears it, then run() returns.
+  const auto blown_up = [&](const BlowUpError& error) {
+    end.step = step();
+    end.stopped = StopReason::kBlowUp;
+    end.blow_up = error;
+    interrupt({StopReason::kBlowUp, &*end.blow_up});
+    return end;
+  };
+  try {
+    for (Observer* observer : observers_) observer->start(*this);
+  } catch (const BlowUpError& error) {
+    return blown_up(error);
+  }
+  // The loop's time excludes the start hooks (the first frame, the first history row).
+  const Clock::time_point started = Clock::now();
+  const auto elapsed = [&] {
+    return std::chrono::duration<double>(Clock::now() - started).count();
+  };
+  while (step() < last_step_) {
+    try {
+      stepper_.step();
+      for (Observer* observer : observers_) observer->after_step(*this);
+    } catch (const BlowUpError& error) {
+      end.loop_seconds = elapsed();
+      return blown_up(error);
+    }
+    if (stop_flag_ != nullptr && *stop_flag_ != 0 && !at_end()) {
+      end.loop_seconds = elapsed();
+      end.step = step();
+      end.stopped = StopReason::kStopRequested;
+      interrupt({StopReason::kStopRequested, nullptr});
+      return end;
+    }
+  }
+  end.loop_seconds = elapsed();
+  end.step = step();
+  end.finished = true;
+  for (Observer* observer : observers_) observer->finish(*this);
+  return end;
+}
+
+}  // namespace bondem
