@@ -1,0 +1,288 @@
+// The run driver: hook order and counts, the two ways a run ends early (a stop request, a
+// blow-up) and how observers hear them, and the history observer's rows.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <csignal>
+#include <cstdint>
+#include <functional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "scene_builders.hpp"
+#include "solver/driver/history.hpp"
+#include "solver/driver/simulation.hpp"
+#include "solver/engine/scene.hpp"
+#include "solver/engine/stepper.hpp"
+
+namespace bondem {
+namespace {
+
+/// Two spheres approaching each other in a box, far from touching for the few steps taken.
+Case two_spheres() {
+  Case c = testing::soft_case(0.1);
+  ParticleSpec a;
+  a.radius = 1e-3;
+  a.position = Eigen::Vector3d(2e-3, 5e-3, 5e-3);
+  a.velocity = Eigen::Vector3d(0.1, 0.0, 0.0);
+  ParticleSpec b = a;
+  b.position.x() = 8e-3;
+  b.velocity.x() = -0.1;
+  c.particles = {a, b};
+  Domain d;
+  d.max = Eigen::Vector3d::Constant(1e-2);
+  c.domain = d;
+  c.end_time = 1e-5;
+  return c;
+}
+
+/// A scene, its stepper and a Simulation to @p last_step.
+struct Fixture {
+  explicit Fixture(std::int64_t last_step, const Case& c = two_spheres())
+      : scene(build_scene(c)), stepper(scene), simulation(scene, stepper, last_step) {}
+  Scene scene;
+  Stepper stepper;
+  Simulation simulation;
+};
+
+/// Logs every hook as "<name> <hook> <step>" (interrupted adds "stop" or "blow-up: <what>"), and
+/// runs @p on_step, if set, at the end of after_step.
+class Recorder : public Observer {
+ public:
+  Recorder(std::string name, std::vector<std::string>& log) : name_(std::move(name)), log_(log) {}
+  std::function<void(const Simulation&)> on_start, on_step;
+
+  void start(const Simulation& s) override {
+    note("start", s);
+    if (on_start) on_start(s);
+  }
+  void after_step(const Simulation& s) override {
+    note("step", s);
+    if (on_step) on_step(s);
+  }
+  void interrupted(const Simulation& s, const Interruption& why) override {
+    if (why.reason == StopReason::kStopRequested) {
+      note("interrupted stop", s);
+    } else {
+      ASSERT_NE(why.blow_up, nullptr);
+      note(std::string("interrupted blow-up: ") + why.blow_up->what(), s);
+    }
+  }
+  void finish(const Simulation& s) override { note("finish", s); }
+
+ private:
+  void note(const std::string& hook, const Simulation& s) {
+    log_.push_back(name_ + " " + hook + " " + std::to_string(s.step()));
+  }
+  std::string name_;
+  std::vector<std::string>& log_;
+};
+
+TEST(Simulation, HooksRunInOrderOncePerStep) {
+  Fixture f(3);
+  std::vector<std::string> log;
+  Recorder a("a", log), b("b", log);
+  f.simulation.attach(a);
+  f.simulation.attach(b);
+  const RunEnd end = f.simulation.run();
+  const std::vector<std::string> expected{"a start 0",  "b start 0", "a step 1", "b step 1",
+                                          "a step 2",   "b step 2",  "a step 3", "b step 3",
+                                          "a finish 3", "b finish 3"};
+  EXPECT_EQ(log, expected);
+  EXPECT_TRUE(end.finished);
+  EXPECT_FALSE(end.stopped.has_value());
+  EXPECT_FALSE(end.blow_up.has_value());
+  EXPECT_EQ(end.first_step, 0);
+  EXPECT_EQ(end.step, 3);
+  EXPECT_EQ(f.stepper.step_count(), 3);
+  EXPECT_GE(end.loop_seconds, 0.0);
+}
+
+TEST(Simulation, ContinuesFromTheStepperCount) {
+  Fixture f(5);
+  f.stepper.step();
+  f.stepper.step();
+  std::vector<std::string> log;
+  Recorder a("a", log);
+  f.simulation.attach(a);
+  const RunEnd end = f.simulation.run();
+  const std::vector<std::string> expected{"a start 2", "a step 3", "a step 4", "a step 5",
+                                          "a finish 5"};
+  EXPECT_EQ(log, expected);
+  EXPECT_EQ(end.first_step, 2);
+  EXPECT_EQ(end.step, 5);
+}
+
+TEST(Simulation, StopRequestInterruptsEveryObserverAndFinishesNone) {
+  Fixture f(10);
+  volatile std::sig_atomic_t stop = 0;
+  f.simulation.stop_when(&stop);
+  std::vector<std::string> log;
+  Recorder a("a", log), b("b", log);
+  a.on_step = [&](const Simulation& s) {
+    if (s.step() == 2) stop = 1;  // as a signal handler would, during the step
+  };
+  f.simulation.attach(a);
+  f.simulation.attach(b);
+  const RunEnd end = f.simulation.run();
+  // The step in progress completes, with all its hooks, before the run stops.
+  const std::vector<std::string> expected{"a start 0",
+                                          "b start 0",
+                                          "a step 1",
+                                          "b step 1",
+                                          "a step 2",
+                                          "b step 2",
+                                          "a interrupted stop 2",
+                                          "b interrupted stop 2"};
+  EXPECT_EQ(log, expected);
+  EXPECT_FALSE(end.finished);
+  ASSERT_TRUE(end.stopped.has_value());
+  EXPECT_EQ(*end.stopped, StopReason::kStopRequested);
+  EXPECT_FALSE(end.blow_up.has_value());
+  EXPECT_EQ(end.step, 2);
+  EXPECT_EQ(f.stepper.step_count(), 2);
+}
+
+TEST(Simulation, StopRequestDuringTheLastStepFinishes) {
+  Fixture f(2);
+  volatile std::sig_atomic_t stop = 0;
+  f.simulation.stop_when(&stop);
+  std::vector<std::string> log;
+  Recorder a("a", log);
+  a.on_step = [&](const Simulation& s) {
+    if (s.at_end()) stop = 1;
+  };
+  f.simulation.attach(a);
+  const RunEnd end = f.simulation.run();
+  EXPECT_TRUE(end.finished);
+  EXPECT_EQ(log.back(), "a finish 2");
+}
+
+TEST(Simulation, BlowUpFromAnObserverReachesInterruptedWithTheError) {
+  Fixture f(10);
+  std::vector<std::string> log;
+  Recorder a("a", log), b("b", log);
+  a.on_step = [](const Simulation& s) {
+    if (s.step() == 3) throw BlowUpError("too hot", BlowUpCause::kHeat);
+  };
+  f.simulation.attach(a);
+  f.simulation.attach(b);
+  const RunEnd end = f.simulation.run();
+  // b's after_step of step 3 never runs: the blow-up ends the step where it is thrown.
+  const std::vector<std::string> expected{"a start 0",
+                                          "b start 0",
+                                          "a step 1",
+                                          "b step 1",
+                                          "a step 2",
+                                          "b step 2",
+                                          "a step 3",
+                                          "a interrupted blow-up: too hot 3",
+                                          "b interrupted blow-up: too hot 3"};
+  EXPECT_EQ(log, expected);
+  EXPECT_FALSE(end.finished);
+  ASSERT_TRUE(end.stopped.has_value());
+  EXPECT_EQ(*end.stopped, StopReason::kBlowUp);
+  ASSERT_TRUE(end.blow_up.has_value());
+  EXPECT_STREQ(end.blow_up->what(), "too hot");
+  EXPECT_EQ(end.blow_up->cause(), BlowUpCause::kHeat);
+  EXPECT_EQ(end.step, 3);
+}
+
+TEST(Simulation, BlowUpAtStartInterruptsObserversNotYetStarted) {
+  Fixture f(10);
+  std::vector<std::string> log;
+  Recorder a("a", log), b("b", log);
+  a.on_start = [](const Simulation&) { throw BlowUpError("bad start", BlowUpCause::kTool); };
+  f.simulation.attach(a);
+  f.simulation.attach(b);
+  const RunEnd end = f.simulation.run();
+  const std::vector<std::string> expected{"a start 0", "a interrupted blow-up: bad start 0",
+                                          "b interrupted blow-up: bad start 0"};
+  EXPECT_EQ(log, expected);
+  EXPECT_EQ(f.stepper.step_count(), 0);
+  ASSERT_TRUE(end.blow_up.has_value());
+  EXPECT_EQ(end.blow_up->cause(), BlowUpCause::kTool);
+}
+
+TEST(Simulation, OtherErrorsLeaveRunWithNoFurtherHook) {
+  Fixture f(10);
+  std::vector<std::string> log;
+  Recorder a("a", log), b("b", log);
+  a.on_step = [](const Simulation& s) {
+    if (s.step() == 2) throw std::runtime_error("disk full");
+  };
+  f.simulation.attach(a);
+  f.simulation.attach(b);
+  EXPECT_THROW(f.simulation.run(), std::runtime_error);
+  EXPECT_EQ(log.back(), "a step 2");
+  EXPECT_EQ(f.stepper.step_count(), 2);
+}
+
+TEST(History, RowsAtStepZeroEveryIntervalAndTheEnd) {
+  Fixture f(7);
+  std::string sunk;
+  History history(f.scene, f.stepper, 3, [&](const std::string& text) { sunk += text; });
+  f.simulation.attach(history);
+  f.simulation.run();
+  // time, kinetic_energy, rotational_energy, contacts, bonds, bonds_formed, bonds_broken,
+  // wall_contacts, max_overlap: no walls, not thermal.
+  ASSERT_EQ(history.columns().size(), 9u);
+  EXPECT_EQ(history.columns()[1].name, "kinetic_energy");
+  EXPECT_STREQ(history.columns()[1].unit, "J");
+  const std::string& text = history.text();
+  EXPECT_EQ(text, sunk);
+  EXPECT_EQ(text.substr(0, text.find('\n') + 1), history_header(history.columns()));
+  // Rows at steps 0, 3, 6 and 7 (the end), each starting with its time.
+  std::vector<std::string> times;
+  for (std::size_t row = text.find('\n') + 1; row < text.size(); row = text.find('\n', row) + 1) {
+    times.push_back(text.substr(row, text.find(',', row) - row));
+  }
+  const double dt = f.scene.time_step;
+  const std::vector<std::string> expected{exact_text(0.0), exact_text(3 * dt), exact_text(6 * dt),
+                                          exact_text(7 * dt)};
+  ASSERT_EQ(times.size(), expected.size()) << text;
+  for (std::size_t k = 0; k < times.size(); ++k) {
+    // The stepper accumulates time step by step: compare as numbers, to a rounding.
+    EXPECT_NEAR(std::stod(times[k]), std::stod(expected[k]), 1e-18) << k;
+  }
+  EXPECT_EQ(history.last_row_step(), 7);
+}
+
+TEST(History, ARestartContinuesItsTextWithoutARowAtTheStart) {
+  Fixture f(4);
+  f.stepper.step();
+  History history(f.scene, f.stepper, 100);
+  history.continue_from("time\n0\n");
+  f.simulation.attach(history);
+  f.simulation.run();
+  const std::string& text = history.text();
+  EXPECT_EQ(text.rfind("time\n0\n", 0), 0u) << text;
+  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 3) << text;  // the two, then step 4
+  EXPECT_EQ(history.last_row_step(), 4);
+}
+
+TEST(History, ANonFiniteTotalIsABlowUpAndItsRowIsNotWritten) {
+  Case c = two_spheres();
+  c.particles[0].velocity.x() = 1e200;  // finite, but its kinetic energy is not
+  Fixture f(5, c);
+  std::string sunk;
+  History history(f.scene, f.stepper, 1, [&](const std::string& text) { sunk += text; });
+  std::vector<std::string> log;
+  Recorder after("after", log);
+  f.simulation.attach(history);
+  f.simulation.attach(after);
+  const RunEnd end = f.simulation.run();
+  ASSERT_TRUE(end.blow_up.has_value());
+  EXPECT_EQ(end.blow_up->cause(), BlowUpCause::kHistory);
+  const std::string what = end.blow_up->what();
+  EXPECT_NE(what.find("history value kinetic_energy = inf J"), std::string::npos) << what;
+  EXPECT_NE(what.find("fastest particle id 0"), std::string::npos) << what;
+  EXPECT_EQ(sunk, history_header(history.columns()));  // the header only
+  EXPECT_EQ(history.last_row_step(), -1);
+  ASSERT_EQ(log.size(), 1u);
+  EXPECT_EQ(log[0].rfind("after interrupted blow-up: step 0", 0), 0u) << log[0];
+}
+
+}  // namespace
+}  // namespace bondem
