@@ -160,8 +160,59 @@ struct CylinderShape {
   }
 };
 
+/// A sphere (case-file type `sphere`) centred on the reference point: an impactor, an indenter or
+/// a rigid obstacle. It does not spin.
+struct SphereShape {
+  double radius = 0.0;  ///< [m]
+
+  /// Radial from the centre; a particle centred exactly at the centre leaves along +z.
+  SurfacePoint nearest(const Eigen::Vector3d& w) const {
+    const double distance = w.norm();
+    const Eigen::Vector3d normal =
+        distance > 0.0 ? Eigen::Vector3d(w / distance) : Eigen::Vector3d::UnitZ();
+    return {distance - radius, normal};
+  }
+  bool surely_apart(const Eigen::Vector3d& w, double r) const {
+    const double reach = radius + r;
+    return w.squaredNorm() >= reach * reach;
+  }
+  Eigen::Vector3d surface_velocity(const Eigen::Vector3d& /*w*/, const Eigen::Vector3d& v) const {
+    return v;
+  }
+  double spin_speed() const { return 0.0; }
+  /// 16 meridians by 8 bands: triangles at the poles (z), quadrilaterals between.
+  Outline outline(const Eigen::Vector3d& center, const Domain& /*domain*/) const {
+    constexpr int kMeridians = 16;
+    constexpr int kBands = 8;
+    const auto at = [&](int band, int meridian) {
+      const double polar = std::numbers::pi * band / kBands;
+      const double azimuth = 2.0 * std::numbers::pi * meridian / kMeridians;
+      return Eigen::Vector3d(center + radius * Eigen::Vector3d(std::sin(polar) * std::cos(azimuth),
+                                                               std::sin(polar) * std::sin(azimuth),
+                                                               std::cos(polar)));
+    };
+    Outline out;
+    for (int b = 0; b < kBands; ++b) {
+      for (int m = 0; m < kMeridians; ++m) {
+        if (b == 0) {
+          out.add({at(0, 0), at(1, m), at(1, m + 1)});
+        } else if (b == kBands - 1) {
+          out.add({at(b, m), at(b + 1, 0), at(b, m + 1)});
+        } else {
+          out.add({at(b, m), at(b + 1, m), at(b + 1, m + 1), at(b, m + 1)});
+        }
+      }
+    }
+    return out;
+  }
+  template <class F>
+  void parameters(F&& f) const {
+    f("radius", radius);
+  }
+};
+
 /// Every tool shape. The order is the shape's number in the case fingerprint: append, never
 /// reorder.
-using ToolShapes = std::variant<BoxShape, CylinderShape>;
+using ToolShapes = std::variant<BoxShape, CylinderShape, SphereShape>;
 
 }  // namespace bondem

@@ -407,6 +407,14 @@ PlacedShape read_roller(const Reader& reader, const YAML::Node& node, const std:
   return {roller, point};
 }
 
+/// `sphere`: {center, radius}.
+PlacedShape read_sphere(const Reader& reader, const YAML::Node& node, const std::string& path) {
+  const Eigen::Vector3d center =
+      reader.vector3(reader.require(node, path, "center"), path + ".center");
+  const double radius = reader.positive(reader.require(node, path, "radius"), path + ".radius");
+  return {SphereShape{radius}, center};
+}
+
 /// One entry per tool shape: its case-file type, its own keys (besides type, material, motion
 /// and name) and its reader.
 struct ToolReader {
@@ -419,6 +427,7 @@ const std::vector<ToolReader>& tool_readers() {
   static const std::vector<ToolReader> readers{
       {"blade", {"min", "max"}, read_blade},
       {"roller", {"point", "axis", "radius", "spin"}, read_roller},
+      {"sphere", {"center", "radius"}, read_sphere},
   };
   return readers;
 }
