@@ -526,12 +526,13 @@ void read_walls(const Reader& reader, Case& c, const YAML::Node& walls) {
     } else if (const ToolReader* tool = find_tool_reader(kind)) {
       c.bodies.push_back(read_tool(reader, c, body, path, *tool));
     } else {
-      std::string known = "plane, box";
+      std::string message = "unknown wall type '" + kind + "' (plane, box";
       const std::vector<ToolReader>& tools = tool_readers();
       for (std::size_t t = 0; t < tools.size(); ++t) {
-        known += (t + 1 == tools.size() ? " or " : ", ") + tools[t].type;
+        message += t + 1 == tools.size() ? " or " : ", ";
+        message += tools[t].type;
       }
-      reader.fail(type, path + ".type", "unknown wall type '" + kind + "' (" + known + ")");
+      reader.fail(type, path + ".type", message + ")");
     }
   }
 }
