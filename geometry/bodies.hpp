@@ -1,14 +1,18 @@
 #pragma once
 /// @file bodies.hpp
-/// Moving rigid tools: a blade (a box) and a roller (a cylinder that may spin), with prescribed
-/// velocity over time. They push particles but are not pushed back (infinite mass).
+/// Moving rigid tools: a shape (one of geometry/tool_shapes.hpp) carried with prescribed velocity
+/// over time. They push particles but are not pushed back (infinite mass). The free functions
+/// here dispatch to the tool's shape; adding a shape does not change this file.
 
 #include <Eigen/Core>
-#include <Eigen/Geometry>
-#include <algorithm>
-#include <cmath>
 #include <string>
+#include <type_traits>
+#include <utility>
+#include <variant>
 #include <vector>
+
+#include "geometry/domain.hpp"
+#include "geometry/tool_shapes.hpp"
 
 namespace bondem {
 
@@ -20,18 +24,49 @@ struct MotionKey {
 
 /// A rigid tool with prescribed motion.
 struct Body {
-  enum class Shape { kBox, kCylinder };
-  Shape shape = Shape::kBox;
+  /// One of the shapes of ToolShapes; converts explicitly to its number in that list.
+  struct Shape : ToolShapes {
+    using ToolShapes::ToolShapes;
+    using ToolShapes::operator=;
+    /// The shape's number in ToolShapes (box 0 and cylinder 1, the old enum's values), which
+    /// io/checkpoint.cpp's case_fingerprint still prints.
+    explicit operator int() const { return static_cast<int>(index()); }
+  };
+  Shape shape;  ///< in the body's frame, relative to center
   std::string name;
   int material = 0;
-  Eigen::Vector3d center = Eigen::Vector3d::Zero();     ///< box centre, or a point on the axis
-  Eigen::Vector3d half_size = Eigen::Vector3d::Zero();  ///< box half extents
-  Eigen::Vector3d axis = Eigen::Vector3d::UnitY();      ///< cylinder axis (unit)
-  double radius = 0.0;                                  ///< cylinder radius [m]
-  double spin = 0.0;              ///< cylinder angular velocity about its axis [rad/s]
+  Eigen::Vector3d center = Eigen::Vector3d::Zero();  ///< reference point the motion carries
   std::vector<MotionKey> motion;  ///< sorted by time; before the first key the body rests
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();  ///< current translational velocity
+
+  // Transitional (issue 13): the flat parameters of the old Body, read only by
+  // io/checkpoint.cpp's case_fingerprint, which lists body fields by hand. Filled from the shape
+  // by mirror_shape_parameters(); nothing else reads them. Remove them when the fingerprint
+  // becomes a canonical dump that visits each shape's parameters().
+  Eigen::Vector3d half_size = Eigen::Vector3d::Zero();
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitY();
+  double radius = 0.0;
+  double spin = 0.0;
 };
+
+/// Copies the shape's parameters into the transitional flat fields of @p body, by name.
+inline void mirror_shape_parameters(Body& body) {
+  body.half_size = Eigen::Vector3d::Zero();
+  body.axis = Eigen::Vector3d::UnitY();
+  body.radius = 0.0;
+  body.spin = 0.0;
+  const auto copy = [&](const char* name, const auto& value) {
+    using Value = std::decay_t<decltype(value)>;
+    if constexpr (std::is_same_v<Value, Eigen::Vector3d>) {
+      if (std::string(name) == "half_size") body.half_size = value;
+      if (std::string(name) == "axis") body.axis = value;
+    } else {
+      if (std::string(name) == "radius") body.radius = value;
+      if (std::string(name) == "spin") body.spin = value;
+    }
+  };
+  std::visit([&](const auto& shape) { shape.parameters(copy); }, body.shape);
+}
 
 /// Prescribed velocity of @p body at @p time: that of the last key not after it.
 inline Eigen::Vector3d velocity_at(const Body& body, double time) {
@@ -43,53 +78,34 @@ inline Eigen::Vector3d velocity_at(const Body& body, double time) {
   return v;
 }
 
-/// Where a sphere centre meets a body: the signed gap from the centre to the surface (negative
-/// when the centre is inside) and the unit normal pointing from the surface toward the centre.
-struct SurfacePoint {
-  double gap;
-  Eigen::Vector3d normal;
-};
-
 /// Nearest surface point of @p body to centre @p c.
 inline SurfacePoint nearest_surface(const Body& body, const Eigen::Vector3d& c) {
-  if (body.shape == Body::Shape::kCylinder) {
-    const Eigen::Vector3d w = c - body.center;
-    const Eigen::Vector3d radial = w - w.dot(body.axis) * body.axis;
-    const double rho = radial.norm();
-    const Eigen::Vector3d normal =
-        rho > 0.0 ? Eigen::Vector3d(radial / rho) : body.axis.unitOrthogonal();
-    return {rho - body.radius, normal};
-  }
-  const Eigen::Vector3d local = c - body.center;
-  const Eigen::Vector3d clamped = local.cwiseMax(-body.half_size).cwiseMin(body.half_size);
-  const Eigen::Vector3d outside = local - clamped;
-  const double distance = outside.norm();
-  if (distance > 0.0) return {distance, outside / distance};
-  // Centre inside the box: leave through the nearest face.
-  const Eigen::Vector3d depth = body.half_size - local.cwiseAbs();
-  Eigen::Index axis = 0;
-  depth.minCoeff(&axis);
-  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
-  normal[axis] = local[axis] >= 0.0 ? 1.0 : -1.0;
-  return {-depth[axis], normal};
+  return std::visit([&](const auto& shape) { return shape.nearest(c - body.center); }, body.shape);
 }
 
 /// True when a sphere of radius @p r centred at @p c cannot touch @p body: the same test as
 /// nearest_surface(body, c).gap >= r, decided on squared distances without a root or a division.
 inline bool surely_apart(const Body& body, const Eigen::Vector3d& c, double r) {
-  const Eigen::Vector3d w = c - body.center;
-  if (body.shape == Body::Shape::kCylinder) {
-    const double reach = body.radius + r;
-    return (w - w.dot(body.axis) * body.axis).squaredNorm() >= reach * reach;
-  }
-  const Eigen::Vector3d clamped = w.cwiseMax(-body.half_size).cwiseMin(body.half_size);
-  return (w - clamped).squaredNorm() >= r * r;
+  return std::visit([&](const auto& shape) { return shape.surely_apart(c - body.center, r); },
+                    body.shape);
 }
 
 /// Velocity of the body's surface material at @p point (translation plus spin).
 inline Eigen::Vector3d surface_velocity(const Body& body, const Eigen::Vector3d& point) {
-  if (body.shape != Body::Shape::kCylinder || body.spin == 0.0) return body.velocity;
-  return body.velocity + (body.spin * body.axis).cross(point - body.center);
+  return std::visit(
+      [&](const auto& shape) { return shape.surface_velocity(point - body.center, body.velocity); },
+      body.shape);
+}
+
+/// Fastest surface speed the body's own rotation adds to its translation [m/s].
+inline double spin_speed(const Body& body) {
+  return std::visit([](const auto& shape) { return shape.spin_speed(); }, body.shape);
+}
+
+/// The body's surface at its current position, for VTK (@p domain bounds unbounded shapes).
+inline Outline outline(const Body& body, const Domain& domain) {
+  return std::visit([&](const auto& shape) { return shape.outline(body.center, domain); },
+                    body.shape);
 }
 
 }  // namespace bondem

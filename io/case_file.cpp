@@ -377,32 +377,81 @@ Domain read_domain(const Reader& reader, const YAML::Node& node, const std::stri
   return d;
 }
 
-/// A moving tool: `blade` {min, max} or `roller` {point, axis, radius, spin}, with `motion`.
-Body read_tool(const Reader& reader, const Case& c, const YAML::Node& node, const std::string& path,
-               bool roller) {
-  Body tool;
-  if (roller) {
-    reader.check_keys(node, path,
-                      {"type", "point", "axis", "radius", "spin", "material", "motion", "name"});
-    tool.shape = Body::Shape::kCylinder;
-    tool.center = reader.vector3(reader.require(node, path, "point"), path + ".point");
-    if (const YAML::Node axis = node["axis"]) {
-      tool.axis = reader.vector3(axis, path + ".axis");
-      if (!(tool.axis.norm() > 0.0)) reader.fail(axis, path + ".axis", "must not be zero");
-      tool.axis.normalize();
-    }
-    tool.radius = reader.positive(reader.require(node, path, "radius"), path + ".radius");
-    if (const YAML::Node spin = node["spin"]) tool.spin = reader.number(spin, path + ".spin");
-  } else {
-    reader.check_keys(node, path, {"type", "min", "max", "material", "motion", "name"});
-    tool.shape = Body::Shape::kBox;
-    const Eigen::Vector3d lo = reader.vector3(reader.require(node, path, "min"), path + ".min");
-    const YAML::Node max = reader.require(node, path, "max");
-    const Eigen::Vector3d hi = reader.vector3(max, path + ".max");
-    if (!(hi.array() > lo.array()).all()) reader.fail(max, path + ".max", "must exceed min");
-    tool.center = 0.5 * (lo + hi);
-    tool.half_size = 0.5 * (hi - lo);
+/// A tool's shape and the point its motion carries, as one reader entry reads them.
+struct PlacedShape {
+  Body::Shape shape;
+  Eigen::Vector3d center;
+};
+
+/// `blade`: a box {min, max}, carried by its centre.
+PlacedShape read_blade(const Reader& reader, const YAML::Node& node, const std::string& path) {
+  const Eigen::Vector3d lo = reader.vector3(reader.require(node, path, "min"), path + ".min");
+  const YAML::Node max = reader.require(node, path, "max");
+  const Eigen::Vector3d hi = reader.vector3(max, path + ".max");
+  if (!(hi.array() > lo.array()).all()) reader.fail(max, path + ".max", "must exceed min");
+  return {BoxShape{0.5 * (hi - lo)}, 0.5 * (lo + hi)};
+}
+
+/// `roller`: a cylinder through `point` along `axis` (default y), `radius`, optional `spin`.
+PlacedShape read_roller(const Reader& reader, const YAML::Node& node, const std::string& path) {
+  CylinderShape roller;
+  const Eigen::Vector3d point =
+      reader.vector3(reader.require(node, path, "point"), path + ".point");
+  if (const YAML::Node axis = node["axis"]) {
+    roller.axis = reader.vector3(axis, path + ".axis");
+    if (!(roller.axis.norm() > 0.0)) reader.fail(axis, path + ".axis", "must not be zero");
+    roller.axis.normalize();
   }
+  roller.radius = reader.positive(reader.require(node, path, "radius"), path + ".radius");
+  if (const YAML::Node spin = node["spin"]) roller.spin = reader.number(spin, path + ".spin");
+  return {roller, point};
+}
+
+/// `sphere`: {center, radius}.
+PlacedShape read_sphere(const Reader& reader, const YAML::Node& node, const std::string& path) {
+  const Eigen::Vector3d center =
+      reader.vector3(reader.require(node, path, "center"), path + ".center");
+  const double radius = reader.positive(reader.require(node, path, "radius"), path + ".radius");
+  return {SphereShape{radius}, center};
+}
+
+/// One entry per tool shape: its case-file type, its own keys (besides type, material, motion
+/// and name) and its reader.
+struct ToolReader {
+  std::string type;
+  std::vector<std::string> keys;
+  PlacedShape (*read)(const Reader&, const YAML::Node&, const std::string&);
+};
+
+const std::vector<ToolReader>& tool_readers() {
+  static const std::vector<ToolReader> readers{
+      {"blade", {"min", "max"}, read_blade},
+      {"roller", {"point", "axis", "radius", "spin"}, read_roller},
+      {"sphere", {"center", "radius"}, read_sphere},
+  };
+  return readers;
+}
+
+/// The reader entry of tool type @p type, or nullptr when it is not a tool.
+const ToolReader* find_tool_reader(const std::string& type) {
+  for (const ToolReader& entry : tool_readers()) {
+    if (entry.type == type) return &entry;
+  }
+  return nullptr;
+}
+
+/// A moving tool: its shape's keys (tool_readers()) and `material`, `motion`, `name`.
+Body read_tool(const Reader& reader, const Case& c, const YAML::Node& node, const std::string& path,
+               const ToolReader& kind) {
+  std::vector<std::string> keys{"type"};
+  keys.insert(keys.end(), kind.keys.begin(), kind.keys.end());
+  keys.insert(keys.end(), {"material", "motion", "name"});
+  reader.check_keys(node, path, keys);
+  Body tool;
+  PlacedShape placed = kind.read(reader, node, path);
+  tool.shape = std::move(placed.shape);
+  tool.center = placed.center;
+  mirror_shape_parameters(tool);
   tool.material = material_index(reader, c, node, path);
   tool.name = node["name"] ? reader.text(node["name"], path + ".name") : path;
   if (const YAML::Node motion = node["motion"]) {
@@ -474,11 +523,16 @@ void read_walls(const Reader& reader, Case& c, const YAML::Node& walls) {
         wall.temperature = temperature;
         c.walls.push_back(wall);
       }
-    } else if (kind == "blade" || kind == "roller") {
-      c.bodies.push_back(read_tool(reader, c, body, path, kind == "roller"));
+    } else if (const ToolReader* tool = find_tool_reader(kind)) {
+      c.bodies.push_back(read_tool(reader, c, body, path, *tool));
     } else {
-      reader.fail(type, path + ".type",
-                  "unknown wall type '" + kind + "' (plane, box, blade or roller)");
+      std::string message = "unknown wall type '" + kind + "' (plane, box";
+      const std::vector<ToolReader>& tools = tool_readers();
+      for (std::size_t t = 0; t < tools.size(); ++t) {
+        message += t + 1 == tools.size() ? " or " : ", ";
+        message += tools[t].type;
+      }
+      reader.fail(type, path + ".type", message + ")");
     }
   }
 }

@@ -316,59 +316,23 @@ vtkSmartPointer<vtkPolyData> wall_data(const std::vector<PlaneWall>& walls, cons
   return data;
 }
 
-/// Moving tools as closed surfaces: a box as its six faces, a cylinder as a 32-sided prism whose
-/// length spans the domain along its axis. Cell arrays: tool index, material.
+/// Moving tools as the outlines their shapes give (a box as its six faces, a cylinder as a
+/// 32-sided prism spanning the domain along its axis, ...). Cell arrays: tool index, material.
 vtkSmartPointer<vtkPolyData> tool_data(const std::vector<Body>& bodies, const Domain& domain) {
   vtkNew<vtkPoints> points;
   points->SetDataTypeToDouble();
   vtkNew<vtkCellArray> polys;
   std::vector<int> tool_of_cell;
-  const auto add = [&](const std::vector<Eigen::Vector3d>& corners, int tool) {
-    std::vector<vtkIdType> ids;
-    ids.reserve(corners.size());
-    for (const Eigen::Vector3d& c : corners) ids.push_back(points->InsertNextPoint(c.data()));
-    polys->InsertNextCell(vtk_size(ids.size()), ids.data());
-    tool_of_cell.push_back(tool);
-  };
   for (std::size_t b = 0; b < bodies.size(); ++b) {
-    const Body& body = bodies[b];
-    const int tool = static_cast<int>(b);
-    if (body.shape == Body::Shape::kBox) {
-      const Eigen::Vector3d lo = body.center - body.half_size;
-      const Eigen::Vector3d hi = body.center + body.half_size;
-      const auto corner = [&](int i) {
-        return Eigen::Vector3d((i & 1) ? hi.x() : lo.x(), (i & 2) ? hi.y() : lo.y(),
-                               (i & 4) ? hi.z() : lo.z());
-      };
-      const int faces[6][4] = {{0, 2, 6, 4}, {1, 5, 7, 3}, {0, 4, 5, 1},
-                               {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 6, 7, 5}};
-      for (const auto& face : faces) {
-        add({corner(face[0]), corner(face[1]), corner(face[2]), corner(face[3])}, tool);
-      }
-    } else {
-      const Eigen::Vector3d axis = body.axis.normalized();
-      const Eigen::Vector3d u = axis.unitOrthogonal();
-      const Eigen::Vector3d v = axis.cross(u);
-      // Span the domain along the axis: project the domain's corners on it.
-      double s_min = 0.0, s_max = 0.0;
-      for (int i = 0; i < 8; ++i) {
-        const Eigen::Vector3d c((i & 1) ? domain.max.x() : domain.min.x(),
-                                (i & 2) ? domain.max.y() : domain.min.y(),
-                                (i & 4) ? domain.max.z() : domain.min.z());
-        const double s = (c - body.center).dot(axis);
-        s_min = i == 0 ? s : std::min(s_min, s);
-        s_max = i == 0 ? s : std::max(s_max, s);
-      }
-      constexpr int kSides = 32;
-      for (int k = 0; k < kSides; ++k) {
-        const double a0 = 2.0 * std::numbers::pi * k / kSides;
-        const double a1 = 2.0 * std::numbers::pi * (k + 1) / kSides;
-        const Eigen::Vector3d r0 = body.radius * (std::cos(a0) * u + std::sin(a0) * v);
-        const Eigen::Vector3d r1 = body.radius * (std::cos(a1) * u + std::sin(a1) * v);
-        add({body.center + r0 + s_min * axis, body.center + r1 + s_min * axis,
-             body.center + r1 + s_max * axis, body.center + r0 + s_max * axis},
-            tool);
-      }
+    const Outline shape = outline(bodies[b], domain);
+    const vtkIdType first = points->GetNumberOfPoints();
+    for (const Eigen::Vector3d& point : shape.points) points->InsertNextPoint(point.data());
+    for (const std::vector<int>& polygon : shape.polygons) {
+      std::vector<vtkIdType> ids;
+      ids.reserve(polygon.size());
+      for (const int corner : polygon) ids.push_back(first + corner);
+      polys->InsertNextCell(vtk_size(ids.size()), ids.data());
+      tool_of_cell.push_back(static_cast<int>(b));
     }
   }
   auto data = vtkSmartPointer<vtkPolyData>::New();

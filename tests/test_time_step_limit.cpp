@@ -174,9 +174,7 @@ TEST(CaseLimit, ToolSpeedEntersTheLimit) {
   EXPECT_NE(limit.cause.find("tool '" + c.bodies[0].name + "'"), std::string::npos) << limit.cause;
   // A roller's rim speed counts like translation.
   Body roller;
-  roller.shape = Body::Shape::kCylinder;
-  roller.radius = 0.01;
-  roller.spin = 100.0;
+  roller.shape = CylinderShape{Eigen::Vector3d::UnitY(), 0.01, 100.0};
   roller.motion.push_back({0.0, Eigen::Vector3d(0.5, 0.0, 0.0)});
   EXPECT_DOUBLE_EQ(tool_surface_speed(roller), 1.5);
 }

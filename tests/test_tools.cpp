@@ -38,12 +38,10 @@ TEST(Tools, QuickApartTestAgreesWithTheExactGap) {
   // two agree except within rounding of the gap (1e-12 m here) of the touching distance.
   Body box;
   box.center = Eigen::Vector3d(0.1, -0.2, 0.3);
-  box.half_size = Eigen::Vector3d(0.002, 0.004, 0.001);
+  box.shape = BoxShape{Eigen::Vector3d(0.002, 0.004, 0.001)};
   Body cylinder;
-  cylinder.shape = Body::Shape::kCylinder;
   cylinder.center = box.center;
-  cylinder.axis = Eigen::Vector3d(1.0, 2.0, 0.5).normalized();
-  cylinder.radius = 0.003;
+  cylinder.shape = CylinderShape{Eigen::Vector3d(1.0, 2.0, 0.5).normalized(), 0.003};
   const double r = 1e-3;
   int apart = 0, touching = 0;
   for (const Body* body : {&box, &cylinder}) {
@@ -68,7 +66,7 @@ TEST(Blade, PushesParticlesAndItsLoadBalancesTheirMomentum) {
   Body blade;
   blade.name = "blade";
   blade.center = Eigen::Vector3d(0.0024, 0.005, 0.003);  // front face 0.1 mm behind the row
-  blade.half_size = Eigen::Vector3d(0.0005, 0.01, 0.003);
+  blade.shape = BoxShape{Eigen::Vector3d(0.0005, 0.01, 0.003)};
   blade.motion = {{0.0, Eigen::Vector3d(0.1, 0.0, 0.0)}};
   c.bodies.push_back(blade);
   Scene scene = build_scene(c);
@@ -102,11 +100,10 @@ TEST(Roller, SpinDragsAParticleAlongItsSurface) {
   Case c = row_on_floor(1);
   c.friction = 0.5;
   Body roller;
-  roller.shape = Body::Shape::kCylinder;
   roller.name = "roller";
-  roller.radius = 0.003;
+  // Spinning about +y at 50 rad/s: the bottom of the roller moves toward -x.
+  roller.shape = CylinderShape{Eigen::Vector3d::UnitY(), 0.003, 50.0};
   roller.center = Eigen::Vector3d(0.004, 0.005, 0.002 + 0.003 - 2e-6);  // pressing lightly
-  roller.spin = 50.0;  // about +y: the bottom of the roller moves toward -x
   c.bodies.push_back(roller);
   Scene scene = build_scene(c);
   Stepper stepper(scene);

@@ -166,7 +166,7 @@ std::vector<std::string> time_step_warnings(const PairReport& report, double tim
 }
 
 double tool_surface_speed(const Body& tool) {
-  const double rim = tool.shape == Body::Shape::kCylinder ? std::abs(tool.spin) * tool.radius : 0.0;
+  const double rim = spin_speed(tool);
   double fastest = 0.0;
   for (const MotionKey& key : tool.motion) fastest = std::max(fastest, key.velocity.stableNorm());
   return fastest + rim;

@@ -99,8 +99,8 @@ PairReport compute_pair_report(const Case& description, int material_a, double r
 /// Warnings about the case's time step against a pair report (empty when none).
 std::vector<std::string> time_step_warnings(const PairReport& report, double time_step);
 
-/// Fastest speed of a tool's surface over its motion keys: translation plus a roller's spin
-/// times its radius [m/s].
+/// Fastest speed of a tool's surface over its motion keys: translation plus what its shape's
+/// spin adds (a roller's spin times its radius) [m/s].
 double tool_surface_speed(const Body& tool);
 
 /// Fastest impact a case can produce: twice its fastest initial particle, twice its fastest tool
