@@ -5,18 +5,12 @@
 #include <fstream>
 #include <sstream>
 #include <type_traits>
+#include <variant>
 
 #include "io/atomic_file.hpp"
 
 namespace bondem {
 namespace {
-
-/// Every double-valued particle field, in file order.
-constexpr std::vector<double> Particles::*kParticleFields[] = {
-    &Particles::x,    &Particles::y,  &Particles::z,  &Particles::vx, &Particles::vy,
-    &Particles::vz,   &Particles::fx, &Particles::fy, &Particles::fz, &Particles::radius,
-    &Particles::mass, &Particles::wx, &Particles::wy, &Particles::wz, &Particles::tx,
-    &Particles::ty,   &Particles::tz};
 
 constexpr char kMagic[8] = {'B', 'O', 'N', 'D', 'E', 'M', 'C', 'K'};
 
@@ -168,12 +162,17 @@ void write_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
   payload.put(s.contacts.max_overlap_fraction);
   payload.put(s.list.builds);
   payload.put(static_cast<std::uint64_t>(p.size()));
-  payload.put(p.id);
-  payload.put(p.material);
-  for (const auto field : kParticleFields) payload.put(p.*field);
+  const auto put_section = [&](CheckpointSection section) {
+    for (const ParticleField& field : kParticleFields) {
+      if (has(field, kCheckpointed) && checkpoint_section(field) == section) {
+        std::visit([&](auto member) { payload.put(p.*member); }, field.member);
+      }
+    }
+  };
+  put_section(CheckpointSection::kParticle);
   for (const auto* field : {&s.list.x0, &s.list.y0, &s.list.z0}) payload.put(*field);
   payload.put(static_cast<std::int32_t>(p.walls));
-  payload.put(p.wall_slip);
+  put_section(CheckpointSection::kWall);
   // Field by field: the struct's padding bytes are not part of the state.
   payload.put(static_cast<std::uint64_t>(s.slips.size()));
   for (const SlipRecord& slip : s.slips) {
@@ -189,12 +188,7 @@ void write_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
   payload.put(s.laser_missed);
   // Thermal arrays, one value per particle, only in thermal runs.
   payload.put(static_cast<std::uint8_t>(p.thermal() ? 1 : 0));
-  if (p.thermal()) {
-    for (const auto* field :
-         {&p.temperature, &p.peak_temperature, &p.inv_heat_capacity, &p.heat_rate}) {
-      payload.put(*field);
-    }
-  }
+  if (p.thermal()) put_section(CheckpointSection::kThermal);
   payload.put(checkpoint.history);
 
   AtomicFile file(path, std::ios::binary);
@@ -268,9 +262,14 @@ Checkpoint read_checkpoint(const std::string& path) {
   const auto n = r.get<std::uint64_t>();
   r.check_room(n, sizeof(double));
   Particles& p = c.particles;
-  r.get(p.id, n);
-  r.get(p.material, n);
-  for (const auto field : kParticleFields) r.get(p.*field, n);
+  const auto get_section = [&](CheckpointSection section, std::uint64_t values_per_particle) {
+    for (const ParticleField& field : kParticleFields) {
+      if (has(field, kCheckpointed) && checkpoint_section(field) == section) {
+        std::visit([&](auto member) { r.get(p.*member, n * values_per_particle); }, field.member);
+      }
+    }
+  };
+  get_section(CheckpointSection::kParticle, 1);
   for (auto* field : {&s.list.x0, &s.list.y0, &s.list.z0}) r.get(*field, n);
   p.walls = r.get<std::int32_t>();
   if (p.walls < 0) r.fail("negative wall count");
@@ -278,7 +277,7 @@ Checkpoint read_checkpoint(const std::string& path) {
   if (slip_values_per_particle > 0 && n > UINT64_MAX / slip_values_per_particle) {
     r.fail("implausible wall count");  // the product below would wrap around
   }
-  r.get(p.wall_slip, n * slip_values_per_particle);
+  get_section(CheckpointSection::kWall, slip_values_per_particle);
   const auto slip_count = r.get<std::uint64_t>();
   constexpr std::size_t kSlipBytes = 2 * sizeof(std::int64_t) + 3 * sizeof(double) + 1;
   r.check_room(slip_count, kSlipBytes);
@@ -299,11 +298,7 @@ Checkpoint read_checkpoint(const std::string& path) {
   s.bonds_broken = r.get<std::int64_t>();
   s.laser_energy = r.get<double>();
   s.laser_missed = r.get<double>();
-  if (r.get<std::uint8_t>() != 0) {
-    for (auto* field : {&p.temperature, &p.peak_temperature, &p.inv_heat_capacity, &p.heat_rate}) {
-      r.get(*field, n);
-    }
-  }
+  if (r.get<std::uint8_t>() != 0) get_section(CheckpointSection::kThermal, 1);
   c.history = r.get_text();
   if (!r.at_end()) r.fail("trailing bytes");
   return c;

@@ -3,8 +3,10 @@
 /// Exact checkpoints: every bit of state a run needs to continue as if never stopped.
 
 #include <cstdint>
+#include <iterator>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
 #include "solver/engine/particles.hpp"
 #include "solver/engine/stepper.hpp"
@@ -20,6 +22,64 @@ class CheckpointError : public std::runtime_error {
 
 /// Format version written into every checkpoint; readers refuse any other.
 inline constexpr std::uint32_t kCheckpointVersion = 3;
+
+/// Where a checkpointed particle field sits in the file: per-particle arrays right after the
+/// particle count, per-wall arrays after the wall count, thermal arrays after the thermal flag.
+enum class CheckpointSection { kParticle, kWall, kThermal };
+
+/// The section of @p field.
+constexpr CheckpointSection checkpoint_section(const ParticleField& field) {
+  if (has(field, kThermal)) return CheckpointSection::kThermal;
+  return has(field, kPerWall) ? CheckpointSection::kWall : CheckpointSection::kParticle;
+}
+
+/// The particle fields of a version-3 checkpoint in file order. Not a list the code reads: a
+/// guard. Checkpointing another field (or dropping or moving one) in kParticleFields fails to
+/// compile until this list and kCheckpointVersion change with it, so that older checkpoints are
+/// refused by their version instead of misread.
+inline constexpr std::string_view kCheckpointParticleLayout[] = {"id",
+                                                                 "material",
+                                                                 "x",
+                                                                 "y",
+                                                                 "z",
+                                                                 "vx",
+                                                                 "vy",
+                                                                 "vz",
+                                                                 "fx",
+                                                                 "fy",
+                                                                 "fz",
+                                                                 "radius",
+                                                                 "mass",
+                                                                 "wx",
+                                                                 "wy",
+                                                                 "wz",
+                                                                 "tx",
+                                                                 "ty",
+                                                                 "tz",
+                                                                 "wall_slip",
+                                                                 "temperature",
+                                                                 "peak_temperature",
+                                                                 "inv_heat_capacity",
+                                                                 "heat_rate"};
+
+/// Whether the checkpointed rows of kParticleFields, in file order, are kCheckpointParticleLayout.
+constexpr bool checkpoint_layout_unchanged() {
+  std::size_t k = 0;
+  for (const CheckpointSection section :
+       {CheckpointSection::kParticle, CheckpointSection::kWall, CheckpointSection::kThermal}) {
+    for (const ParticleField& field : kParticleFields) {
+      if (!has(field, kCheckpointed) || checkpoint_section(field) != section) continue;
+      if (k == std::size(kCheckpointParticleLayout) || kCheckpointParticleLayout[k] != field.name) {
+        return false;
+      }
+      ++k;
+    }
+  }
+  return k == std::size(kCheckpointParticleLayout);
+}
+static_assert(checkpoint_layout_unchanged(),
+              "the checkpointed particle fields changed: bump kCheckpointVersion and update "
+              "kCheckpointParticleLayout");
 
 /// The complete state of a run at the end of a step.
 struct Checkpoint {
