@@ -89,9 +89,14 @@ struct Checkpoint {
   std::string history;                 ///< history.csv rows written so far
 };
 
-/// Hash of everything in a case that shapes the trajectory (materials, laws, time step, domain,
-/// walls, neighbor settings, particle count) but not the end time or the outputs, so a
-/// checkpoint can be continued to a later end time.
+/// The canonical text of @p description that its fingerprint hashes, one `key=value` a line:
+/// the resolved case (every field of Case, defaults included, and every particle exactly), then
+/// every value the case-file reader read (Case::settings). Left out is only what a restart may
+/// change: the end time and the output settings.
+std::string canonical_case_text(const Case& description);
+
+/// FNV-1a hash of canonical_case_text(): equal for a case and its continuation to a later end
+/// time or with other outputs, different when anything that shapes the trajectory differs.
 std::uint64_t case_fingerprint(const Case& description);
 
 /// Write atomically (temporary file, then rename): magic, version, payload size, payload,
