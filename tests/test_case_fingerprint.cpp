@@ -131,9 +131,11 @@ TEST(CaseFingerprint, EveryKeyTheReaderReadsIsInIt) {
       if (value == "{}") continue;  // a mapping: its keys are checked one by one
       const bool may_change = key == "time.end" || key.rfind("output.", 0) == 0;
       for (const std::string& nudge : nudged(value)) {
+        std::string assignment = key;
+        assignment.append("=").append(nudge);
         Case other;
         try {
-          other = source.read({key + "=" + nudge});
+          other = source.read({assignment});
         } catch (const CaseError&) {
           continue;  // refused: try another change
         }
