@@ -67,12 +67,12 @@ TEST(ParticleFields, AddGrowsEveryFieldInUse) {
     const double position[3] = {1.0, 2.0, 3.0};
     const double velocity[3] = {4.0, 5.0, 6.0};
     p.add(9, 1, 0.5, 2.0, position, velocity);
-    if (thermal) {  // as the scene does: temperatures given to the particles made so far
+    if (thermal) {
+      p.track_temperatures();
       for (const ParticleField& field : kParticleFields) {
-        if (has(field, kThermal)) {
-          std::visit([&](auto member) { (p.*member).assign(1, 300.0); }, field.member);
-        }
+        EXPECT_EQ(values(p, field).size(), values_per_particle(field, p)) << field.name;
       }
+      p.temperature[0] = 300.0;
     }
     p.add(10, 0, 0.25, 1.0, position, velocity);
     ASSERT_EQ(p.size(), 2u);
@@ -91,6 +91,7 @@ TEST(ParticleFields, AddGrowsEveryFieldInUse) {
     EXPECT_EQ(p.fx[1], 0.0);
     EXPECT_EQ(p.wall_slip.back(), 0.0);
     if (thermal) {
+      EXPECT_EQ(p.temperature[0], 300.0);
       EXPECT_EQ(p.temperature[1], 0.0);
     }
   }

@@ -73,6 +73,10 @@ struct Particles {
 
   /// Reorder every field marked kReordered so that new index k holds old particle order[k].
   void permute(const std::vector<std::uint32_t>& order);
+
+  /// Start tracking temperatures: every kThermal field gets a zero per particle, for the scene
+  /// to fill in (a thermal field added to the table then needs no line of its own there).
+  void track_temperatures();
 };
 
 /// What a particle field takes part in: bits of ParticleField::flags.
@@ -230,6 +234,14 @@ inline void Particles::permute(const std::vector<std::uint32_t>& order) {
           values.swap(reordered);
         },
         field.member);
+  }
+}
+
+inline void Particles::track_temperatures() {
+  for (const ParticleField& field : kParticleFields) {
+    if (has(field, kThermal)) {
+      std::visit([&](auto member) { (this->*member).assign(size(), {}); }, field.member);
+    }
   }
 }
 
