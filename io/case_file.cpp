@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -45,6 +46,7 @@ class Reader {
 
   void expect_map(const YAML::Node& node, const std::string& path) const {
     if (!node.IsMap()) fail(node, path, "expected a mapping of keys to values");
+    record(path, "{}");
   }
 
   /// Unknown and repeated keys are errors: a typo must never be silently ignored.
@@ -82,6 +84,10 @@ class Reader {
       fail(node, path, "expected a number, got '" + node.Scalar() + "'");
     }
     if (!std::isfinite(value)) fail(node, path, "must be finite, got '" + node.Scalar() + "'");
+    std::array<char, 32> shortest{};
+    const std::to_chars_result written =
+        std::to_chars(shortest.data(), shortest.data() + shortest.size(), value);
+    record(path, std::string(shortest.data(), written.ptr));
     return value;
   }
 
@@ -118,6 +124,7 @@ class Reader {
            "must lie in [" + std::to_string(lo) + ", " + std::to_string(hi) + "], got " +
                node.Scalar());
     }
+    record(path, std::to_string(value));
     return value;
   }
 
@@ -126,11 +133,13 @@ class Reader {
     if (!node.IsScalar() || !YAML::convert<bool>::decode(node, value)) {
       fail(node, path, "expected true or false");
     }
+    record(path, value ? "true" : "false");
     return value;
   }
 
   std::string text(const YAML::Node& node, const std::string& path) const {
     if (!node.IsScalar()) fail(node, path, "expected a text value");
+    record(path, node.Scalar());
     return node.Scalar();
   }
 
@@ -173,10 +182,20 @@ class Reader {
   const std::string& source() const { return source_; }
   /// Whether @p path was given by --set.
   bool was_set(const std::string& path) const { return overrides_.count(path) != 0; }
+  /// Every value read so far by the typed readers above, by path (Case::settings).
+  const std::map<std::string, std::string>& settings() const { return settings_; }
 
  private:
+  /// Note that @p path was read as @p value. Recording is what the typed readers do, not a step
+  /// that a new key could forget: every value of the case passes through one of them.
+  void record(const std::string& path, std::string value) const {
+    settings_[path] = std::move(value);
+  }
+
   std::string source_;
   std::map<std::string, std::string> overrides_;
+  /// Mutable: the reader is passed as const everywhere; recording does not change what it reads.
+  mutable std::map<std::string, std::string> settings_;
 };
 
 /// Split `a.b.0.c=value` and set that scalar in @p root. Only scalars (or new map keys, which
@@ -1191,6 +1210,7 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
 
   read_output(reader, root, c);
   read_analysis(reader, root, c);
+  c.settings = reader.settings();
   return c;
 }
 

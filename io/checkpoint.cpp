@@ -1,22 +1,20 @@
 #include "io/checkpoint.hpp"
 
+#include <array>
+#include <charconv>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <string_view>
 #include <type_traits>
+#include <utility>
+#include <variant>
 
 #include "io/atomic_file.hpp"
 
 namespace bondem {
 namespace {
-
-/// Every double-valued particle field, in file order.
-constexpr std::vector<double> Particles::*kParticleFields[] = {
-    &Particles::x,    &Particles::y,  &Particles::z,  &Particles::vx, &Particles::vy,
-    &Particles::vz,   &Particles::fx, &Particles::fy, &Particles::fz, &Particles::radius,
-    &Particles::mass, &Particles::wx, &Particles::wy, &Particles::wz, &Particles::tx,
-    &Particles::ty,   &Particles::tz};
 
 constexpr char kMagic[8] = {'B', 'O', 'N', 'D', 'E', 'M', 'C', 'K'};
 
@@ -103,55 +101,168 @@ class Reader {
   std::size_t offset_ = 0;
 };
 
+/// Lines `key=value` of the canonical case text, numbers in their shortest exact form: kept as
+/// text, or only hashed as they come (a case of a million particles makes a text of 200 MB).
+class CanonicalText {
+ public:
+  explicit CanonicalText(bool keep_text) : keep_text_(keep_text) {}
+  void add(const std::string& key, double value) {
+    std::array<char, 32> buffer{};
+    const std::to_chars_result written =
+        std::to_chars(buffer.data(), buffer.data() + buffer.size(), value);
+    add(key,
+        std::string_view(buffer.data(), static_cast<std::size_t>(written.ptr - buffer.data())));
+  }
+  void add(const std::string& key, int value) { add(key, std::string_view(std::to_string(value))); }
+  void add(const std::string& key, bool value) { add(key, std::string_view(value ? "1" : "0")); }
+  void add(const std::string& key, std::string_view value) {
+    hash_ = fnv1a(key.data(), key.size(), hash_);
+    hash_ = fnv1a("=", 1, hash_);
+    hash_ = fnv1a(value.data(), value.size(), hash_);
+    hash_ = fnv1a("\n", 1, hash_);
+    if (keep_text_) text_.append(key).append("=").append(value).append("\n");
+  }
+  void add(const std::string& key, const Eigen::Vector3d& v) {
+    for (int a = 0; a < 3; ++a) add(key + "." + std::to_string(a), v[a]);
+  }
+  const std::string& text() const { return text_; }
+  /// fnv1a() of the text.
+  std::uint64_t hash() const { return hash_; }
+
+ private:
+  bool keep_text_;
+  std::string text_;
+  std::uint64_t hash_ = fnv1a(nullptr, 0);
+};
+
+/// Keys of Case::settings that may change on a restart: a run is continued to a later end, and
+/// possibly with other output intervals or another output directory.
+bool restart_may_change(const std::string& key) {
+  return key == "time.end" || key == "output" || key.rfind("output.", 0) == 0;
+}
+
+/// Write the canonical text of case @p c into @p t (canonical_case_text() says what it holds).
+void write_canonical(const Case& c, CanonicalText& t) {
+  // The resolved case, defaults included: what a case built in code has too.
+  for (std::size_t k = 0; k < c.materials.size(); ++k) {
+    const Material& m = c.materials[k];
+    const std::string key = "case.materials." + std::to_string(k);
+    t.add(key + ".name", std::string_view(m.name));
+    t.add(key + ".density", m.density);
+    t.add(key + ".youngs_modulus", m.youngs_modulus);
+    t.add(key + ".poisson_ratio", m.poisson_ratio);
+    t.add(key + ".specific_heat", m.specific_heat);
+    t.add(key + ".thermal_conductivity", m.thermal_conductivity);
+    t.add(key + ".emissivity", m.emissivity);
+  }
+  t.add("case.contact_damping", c.contact_damping);
+  t.add("case.friction", c.friction);
+  t.add("case.rolling_friction", c.rolling_friction);
+  t.add("case.bond.alpha", c.bond.alpha);
+  t.add("case.bond.input", static_cast<int>(c.bond.input));
+  t.add("case.bond.stiffness", c.bond.stiffness);
+  t.add("case.bond.equilibrium_overlap", c.bond.equilibrium_overlap);
+  t.add("case.bond.damping_ratio", c.bond.damping_ratio);
+  t.add("case.bond.criterion", static_cast<int>(c.bond.criterion));
+  t.add("case.bond.temperature", c.bond.temperature);
+  t.add("case.time_step", c.time_step);
+  t.add("case.gravity", c.gravity);
+  for (std::size_t k = 0; k < c.particles.size(); ++k) {
+    const ParticleSpec& p = c.particles[k];
+    const std::string key = "case.particles." + std::to_string(k);
+    t.add(key + ".material", p.material);
+    t.add(key + ".radius", p.radius);
+    t.add(key + ".position", p.position);
+    t.add(key + ".velocity", p.velocity);
+    t.add(key + ".temperature", p.temperature);
+  }
+  if (c.domain) {
+    t.add("case.domain.min", c.domain->min);
+    t.add("case.domain.max", c.domain->max);
+    for (int a = 0; a < 3; ++a) {
+      t.add("case.domain.periodic." + std::to_string(a), c.domain->periodic[a]);
+    }
+  }
+  for (std::size_t k = 0; k < c.walls.size(); ++k) {
+    const PlaneWall& w = c.walls[k];
+    const std::string key = "case.walls." + std::to_string(k);
+    t.add(key + ".name", std::string_view(w.name));
+    t.add(key + ".point", w.point);
+    t.add(key + ".normal", w.normal);
+    t.add(key + ".material", w.material);
+    t.add(key + ".temperature", w.temperature);
+  }
+  for (std::size_t k = 0; k < c.bodies.size(); ++k) {
+    const Body& b = c.bodies[k];
+    const std::string key = "case.bodies." + std::to_string(k);
+    t.add(key + ".name", std::string_view(b.name));
+    t.add(key + ".shape", static_cast<int>(b.shape));
+    t.add(key + ".material", b.material);
+    t.add(key + ".center", b.center);
+    t.add(key + ".half_size", b.half_size);
+    t.add(key + ".axis", b.axis);
+    t.add(key + ".radius", b.radius);
+    t.add(key + ".spin", b.spin);
+    t.add(key + ".velocity", b.velocity);
+    for (std::size_t m = 0; m < b.motion.size(); ++m) {
+      t.add(key + ".motion." + std::to_string(m) + ".time", b.motion[m].time);
+      t.add(key + ".motion." + std::to_string(m) + ".velocity", b.motion[m].velocity);
+    }
+  }
+  t.add("case.skin", c.skin);
+  t.add("case.reorder_interval", c.reorder_interval);
+  t.add("case.max_overlap_fraction", c.max_overlap_fraction);
+  if (c.thermal) {
+    t.add("case.thermal.initial_temperature", c.thermal->initial_temperature);
+    t.add("case.thermal.ambient_temperature", c.thermal->ambient_temperature);
+    t.add("case.thermal.convection_coefficient", c.thermal->convection_coefficient);
+    t.add("case.thermal.radiation", c.thermal->radiation);
+  }
+  if (c.laser) {
+    const Laser& l = *c.laser;
+    t.add("case.laser.power", l.power);
+    t.add("case.laser.spot_radius", l.spot_radius);
+    t.add("case.laser.absorptivity", l.absorptivity);
+    t.add("case.laser.start_time", l.start_time);
+    for (std::size_t k = 0; k < l.path.size(); ++k) {
+      const std::string key = "case.laser.path." + std::to_string(k);
+      t.add(key + ".from", Eigen::Vector3d(l.path[k].start.x(), l.path[k].start.y(), 0.0));
+      t.add(key + ".to", Eigen::Vector3d(l.path[k].end.x(), l.path[k].end.y(), 0.0));
+      t.add(key + ".speed", l.path[k].speed);
+    }
+  }
+  if (c.analysis_region) {
+    t.add("case.analysis.region.min", c.analysis_region->min);
+    t.add("case.analysis.region.max", c.analysis_region->max);
+  }
+  if (c.layer) {
+    const LayerRegion& r = *c.layer;
+    for (const auto& [key, value] :
+         {std::pair{"x_min", r.x_min}, std::pair{"x_max", r.x_max}, std::pair{"y_min", r.y_min},
+          std::pair{"y_max", r.y_max}, std::pair{"substrate_z", r.substrate_z},
+          std::pair{"layer_height", r.layer_height}, std::pair{"grid_spacing", r.grid_spacing}}) {
+      t.add(std::string("case.analysis.layer.") + key, value);
+    }
+    t.add("case.analysis.layer.bins", r.bins);
+  }
+  // Everything the case-file reader read, whatever the lines above may miss.
+  for (const auto& [key, value] : c.settings) {
+    if (!restart_may_change(key)) t.add("file." + key, std::string_view(value));
+  }
+}
+
 }  // namespace
 
+std::string canonical_case_text(const Case& c) {
+  CanonicalText t(true);
+  write_canonical(c, t);
+  return t.text();
+}
+
 std::uint64_t case_fingerprint(const Case& c) {
-  std::ostringstream text;
-  text.precision(17);
-  for (const Material& m : c.materials) {
-    text << m.name << ' ' << m.density << ' ' << m.youngs_modulus << ' ' << m.poisson_ratio << ';';
-  }
-  text << c.contact_damping << ' ' << c.friction << ' ' << c.rolling_friction << ';' << c.bond.alpha
-       << ' ' << static_cast<int>(c.bond.input) << ' ' << c.bond.stiffness << ' '
-       << c.bond.equilibrium_overlap << ' ' << c.bond.damping_ratio << ' '
-       << static_cast<int>(c.bond.criterion) << ';' << c.time_step << ';' << c.gravity.transpose()
-       << ';' << c.particles.size() << ';' << c.skin << ' ' << c.reorder_interval << ' '
-       << c.max_overlap_fraction << ';';
-  if (c.domain) {
-    text << c.domain->min.transpose() << ' ' << c.domain->max.transpose() << ' '
-         << c.domain->periodic[0] << c.domain->periodic[1] << c.domain->periodic[2] << ';';
-  }
-  for (const PlaneWall& w : c.walls) {
-    text << w.point.transpose() << ' ' << w.normal.transpose() << ' ' << w.material << ';';
-  }
-  for (const Body& b : c.bodies) {
-    text << static_cast<int>(b.shape) << ' ' << b.center.transpose() << ' '
-         << b.half_size.transpose() << ' ' << b.axis.transpose() << ' ' << b.radius << ' ' << b.spin
-         << ' ' << b.material << ';';
-    for (const MotionKey& key : b.motion)
-      text << key.time << ' ' << key.velocity.transpose() << ';';
-  }
-  // Thermal settings only enter with a thermal block (nothing thermal acts without one), so the
-  // fingerprints of other cases, and the checkpoints that carry them, stay as they were.
-  if (c.thermal) {
-    const ThermalModel& t = *c.thermal;
-    text << "thermal " << t.initial_temperature << ' ' << t.ambient_temperature << ' '
-         << t.convection_coefficient << ' ' << t.radiation << ' ' << c.bond.temperature << ';';
-    for (const Material& m : c.materials) {
-      text << m.specific_heat << ' ' << m.thermal_conductivity << ' ' << m.emissivity << ';';
-    }
-    for (const PlaneWall& w : c.walls) text << w.temperature << ';';
-    if (c.laser) {
-      const Laser& l = *c.laser;
-      text << "laser " << l.power << ' ' << l.spot_radius << ' ' << l.absorptivity << ' '
-           << l.start_time << ';';
-      for (const LaserSegment& s : l.path) {
-        text << s.start.transpose() << ' ' << s.end.transpose() << ' ' << s.speed << ';';
-      }
-    }
-  }
-  const std::string canonical = text.str();
-  return fnv1a(canonical.data(), canonical.size());
+  CanonicalText t(false);
+  write_canonical(c, t);
+  return t.hash();
 }
 
 void write_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
@@ -168,12 +279,17 @@ void write_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
   payload.put(s.contacts.max_overlap_fraction);
   payload.put(s.list.builds);
   payload.put(static_cast<std::uint64_t>(p.size()));
-  payload.put(p.id);
-  payload.put(p.material);
-  for (const auto field : kParticleFields) payload.put(p.*field);
+  const auto put_section = [&](CheckpointSection section) {
+    for (const ParticleField& field : kParticleFields) {
+      if (has(field, kCheckpointed) && checkpoint_section(field) == section) {
+        std::visit([&](auto member) { payload.put(p.*member); }, field.member);
+      }
+    }
+  };
+  put_section(CheckpointSection::kParticle);
   for (const auto* field : {&s.list.x0, &s.list.y0, &s.list.z0}) payload.put(*field);
   payload.put(static_cast<std::int32_t>(p.walls));
-  payload.put(p.wall_slip);
+  put_section(CheckpointSection::kWall);
   // Field by field: the struct's padding bytes are not part of the state.
   payload.put(static_cast<std::uint64_t>(s.slips.size()));
   for (const SlipRecord& slip : s.slips) {
@@ -189,12 +305,7 @@ void write_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
   payload.put(s.laser_missed);
   // Thermal arrays, one value per particle, only in thermal runs.
   payload.put(static_cast<std::uint8_t>(p.thermal() ? 1 : 0));
-  if (p.thermal()) {
-    for (const auto* field :
-         {&p.temperature, &p.peak_temperature, &p.inv_heat_capacity, &p.heat_rate}) {
-      payload.put(*field);
-    }
-  }
+  if (p.thermal()) put_section(CheckpointSection::kThermal);
   payload.put(checkpoint.history);
 
   AtomicFile file(path, std::ios::binary);
@@ -268,9 +379,14 @@ Checkpoint read_checkpoint(const std::string& path) {
   const auto n = r.get<std::uint64_t>();
   r.check_room(n, sizeof(double));
   Particles& p = c.particles;
-  r.get(p.id, n);
-  r.get(p.material, n);
-  for (const auto field : kParticleFields) r.get(p.*field, n);
+  const auto get_section = [&](CheckpointSection section, std::uint64_t values_per_particle) {
+    for (const ParticleField& field : kParticleFields) {
+      if (has(field, kCheckpointed) && checkpoint_section(field) == section) {
+        std::visit([&](auto member) { r.get(p.*member, n * values_per_particle); }, field.member);
+      }
+    }
+  };
+  get_section(CheckpointSection::kParticle, 1);
   for (auto* field : {&s.list.x0, &s.list.y0, &s.list.z0}) r.get(*field, n);
   p.walls = r.get<std::int32_t>();
   if (p.walls < 0) r.fail("negative wall count");
@@ -278,7 +394,7 @@ Checkpoint read_checkpoint(const std::string& path) {
   if (slip_values_per_particle > 0 && n > UINT64_MAX / slip_values_per_particle) {
     r.fail("implausible wall count");  // the product below would wrap around
   }
-  r.get(p.wall_slip, n * slip_values_per_particle);
+  get_section(CheckpointSection::kWall, slip_values_per_particle);
   const auto slip_count = r.get<std::uint64_t>();
   constexpr std::size_t kSlipBytes = 2 * sizeof(std::int64_t) + 3 * sizeof(double) + 1;
   r.check_room(slip_count, kSlipBytes);
@@ -299,11 +415,7 @@ Checkpoint read_checkpoint(const std::string& path) {
   s.bonds_broken = r.get<std::int64_t>();
   s.laser_energy = r.get<double>();
   s.laser_missed = r.get<double>();
-  if (r.get<std::uint8_t>() != 0) {
-    for (auto* field : {&p.temperature, &p.peak_temperature, &p.inv_heat_capacity, &p.heat_rate}) {
-      r.get(*field, n);
-    }
-  }
+  if (r.get<std::uint8_t>() != 0) get_section(CheckpointSection::kThermal, 1);
   c.history = r.get_text();
   if (!r.at_end()) r.fail("trailing bytes");
   return c;

@@ -3,8 +3,10 @@
 /// Exact checkpoints: every bit of state a run needs to continue as if never stopped.
 
 #include <cstdint>
+#include <iterator>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
 #include "solver/engine/particles.hpp"
 #include "solver/engine/stepper.hpp"
@@ -21,6 +23,64 @@ class CheckpointError : public std::runtime_error {
 /// Format version written into every checkpoint; readers refuse any other.
 inline constexpr std::uint32_t kCheckpointVersion = 3;
 
+/// Where a checkpointed particle field sits in the file: per-particle arrays right after the
+/// particle count, per-wall arrays after the wall count, thermal arrays after the thermal flag.
+enum class CheckpointSection { kParticle, kWall, kThermal };
+
+/// The section of @p field.
+constexpr CheckpointSection checkpoint_section(const ParticleField& field) {
+  if (has(field, kThermal)) return CheckpointSection::kThermal;
+  return has(field, kPerWall) ? CheckpointSection::kWall : CheckpointSection::kParticle;
+}
+
+/// The particle fields of a version-3 checkpoint in file order. Not a list the code reads: a
+/// guard. Checkpointing another field (or dropping or moving one) in kParticleFields fails to
+/// compile until this list and kCheckpointVersion change with it, so that older checkpoints are
+/// refused by their version instead of misread.
+inline constexpr std::string_view kCheckpointParticleLayout[] = {"id",
+                                                                 "material",
+                                                                 "x",
+                                                                 "y",
+                                                                 "z",
+                                                                 "vx",
+                                                                 "vy",
+                                                                 "vz",
+                                                                 "fx",
+                                                                 "fy",
+                                                                 "fz",
+                                                                 "radius",
+                                                                 "mass",
+                                                                 "wx",
+                                                                 "wy",
+                                                                 "wz",
+                                                                 "tx",
+                                                                 "ty",
+                                                                 "tz",
+                                                                 "wall_slip",
+                                                                 "temperature",
+                                                                 "peak_temperature",
+                                                                 "inv_heat_capacity",
+                                                                 "heat_rate"};
+
+/// Whether the checkpointed rows of kParticleFields, in file order, are kCheckpointParticleLayout.
+constexpr bool checkpoint_layout_unchanged() {
+  std::size_t k = 0;
+  for (const CheckpointSection section :
+       {CheckpointSection::kParticle, CheckpointSection::kWall, CheckpointSection::kThermal}) {
+    for (const ParticleField& field : kParticleFields) {
+      if (!has(field, kCheckpointed) || checkpoint_section(field) != section) continue;
+      if (k == std::size(kCheckpointParticleLayout) || kCheckpointParticleLayout[k] != field.name) {
+        return false;
+      }
+      ++k;
+    }
+  }
+  return k == std::size(kCheckpointParticleLayout);
+}
+static_assert(checkpoint_layout_unchanged(),
+              "the checkpointed particle fields changed: bump kCheckpointVersion and update "
+              "kCheckpointParticleLayout");
+
 /// The complete state of a run at the end of a step.
 struct Checkpoint {
   std::uint64_t case_fingerprint = 0;  ///< case_fingerprint() of the case that wrote it
@@ -29,9 +89,14 @@ struct Checkpoint {
   std::string history;                 ///< history.csv rows written so far
 };
 
-/// Hash of everything in a case that shapes the trajectory (materials, laws, time step, domain,
-/// walls, neighbor settings, particle count) but not the end time or the outputs, so a
-/// checkpoint can be continued to a later end time.
+/// The canonical text of @p description that its fingerprint hashes, one `key=value` a line:
+/// the resolved case (every field of Case, defaults included, and every particle exactly), then
+/// every value the case-file reader read (Case::settings). Left out is only what a restart may
+/// change: the end time and the output settings.
+std::string canonical_case_text(const Case& description);
+
+/// FNV-1a hash of canonical_case_text(): equal for a case and its continuation to a later end
+/// time or with other outputs, different when anything that shapes the trajectory differs.
 std::uint64_t case_fingerprint(const Case& description);
 
 /// Write atomically (temporary file, then rename): magic, version, payload size, payload,

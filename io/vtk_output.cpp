@@ -28,12 +28,16 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <numbers>
 #include <regex>
 #include <set>
 #include <stdexcept>
+#include <string_view>
 #include <system_error>
+#include <type_traits>
 #include <utility>
+#include <variant>
 
 #include "io/atomic_file.hpp"
 
@@ -176,6 +180,84 @@ vtkNew<vtkPoints> make_points(std::size_t n) {
   return points;
 }
 
+/// One point array of the particle file that comes from kParticleFields: a scalar row, or the
+/// three rows of a vector.
+struct TableArray {
+  std::string_view name;
+  int order = 0;
+  const ParticleField* rows[3] = {nullptr, nullptr, nullptr};  ///< the scalar's row in [0]
+  bool vector = false;
+};
+
+/// The table's arrays that @p p has (thermal ones only when temperatures are tracked), in
+/// ascending VTK order.
+std::vector<TableArray> table_arrays(const Particles& p) {
+  std::vector<TableArray> arrays;
+  for (const ParticleField& field : kParticleFields) {
+    if (field.vtk_name.empty() || field.vtk_component > 0 || !in_use(field, p)) continue;
+    TableArray array{
+        field.vtk_name, field.vtk_order, {&field, nullptr, nullptr}, field.vtk_component == 0};
+    if (array.vector) {
+      for (const ParticleField& other : kParticleFields) {
+        if (other.vtk_name == field.vtk_name && other.vtk_component > 0) {
+          array.rows[other.vtk_component] = &other;
+        }
+      }
+    }
+    arrays.push_back(array);
+  }
+  std::stable_sort(arrays.begin(), arrays.end(),
+                   [](const TableArray& a, const TableArray& b) { return a.order < b.order; });
+  return arrays;
+}
+
+/// The doubles of row @p field of @p p (vector components are doubles: particle_fields_consistent).
+const std::vector<double>& doubles(const Particles& p, const ParticleField& field) {
+  return p.*std::get<std::vector<double> Particles::*>(field.member);
+}
+
+/// Whether the caller's @p values is the array of @p p that table row @p field names.
+bool is_row(const Particles& p, const ParticleField* field, const std::vector<double>* values) {
+  const auto* member = std::get_if<std::vector<double> Particles::*>(&field->member);
+  return member != nullptr && &(p.**member) == values;
+}
+
+/// Whether the caller's extra scalar @p field is table array @p array of @p p itself.
+bool is_table_array(const Particles& p, const TableArray& array,
+                    const VtkSeriesWriter::ScalarField& field) {
+  return !array.vector && is_row(p, array.rows[0], field.values);
+}
+
+/// Whether the caller's extra vector @p field is table array @p array of @p p itself.
+bool is_table_array(const Particles& p, const TableArray& array,
+                    const VtkSeriesWriter::VectorField& field) {
+  return array.vector && is_row(p, array.rows[0], field.x) && is_row(p, array.rows[1], field.y) &&
+         is_row(p, array.rows[2], field.z);
+}
+
+/// The VTK array of table array @p array: Int64, Int32 or Float64 as the member's type.
+vtkSmartPointer<vtkDataArray> make_table_array(const Particles& p, const TableArray& array) {
+  const std::string name(array.name);
+  if (array.vector) {
+    return vector_array(name, doubles(p, *array.rows[0]), doubles(p, *array.rows[1]),
+                        doubles(p, *array.rows[2]));
+  }
+  return std::visit(
+      [&](auto member) -> vtkSmartPointer<vtkDataArray> {
+        const auto& values = p.*member;
+        using Value = typename std::remove_reference_t<decltype(values)>::value_type;
+        const auto value = [&](std::size_t i) { return values[i]; };
+        if constexpr (std::is_same_v<Value, std::int64_t>) {
+          return integer_array<vtkTypeInt64Array>(name.c_str(), values.size(), value);
+        } else if constexpr (std::is_same_v<Value, std::int32_t>) {
+          return integer_array<vtkTypeInt32Array>(name.c_str(), values.size(), value);
+        } else {
+          return scalar_array(name, values);
+        }
+      },
+      array.rows[0]->member);
+}
+
 vtkSmartPointer<vtkPolyData> particle_data(
     const Particles& p, const std::vector<VtkSeriesWriter::ScalarField>& scalars,
     const std::vector<VtkSeriesWriter::VectorField>& vectors) {
@@ -193,19 +275,30 @@ vtkSmartPointer<vtkPolyData> particle_data(
   data->SetPoints(points);
   data->SetVerts(verts);
   vtkPointData* arrays = data->GetPointData();
-  arrays->AddArray(
-      integer_array<vtkTypeInt64Array>("id", n, [&](std::size_t i) { return p.id[i]; }));
-  arrays->AddArray(scalar_array("radius", p.radius));
-  arrays->AddArray(vector_array("velocity", p.vx, p.vy, p.vz));
-  arrays->AddArray(vector_array("force", p.fx, p.fy, p.fz));
-  arrays->AddArray(integer_array<vtkTypeInt32Array>("material", n,
-                                                    [&](std::size_t i) { return p.material[i]; }));
+  // The table's arrays by their order, the caller's derived scalars and vectors at their places.
+  // A caller's array that is a table array itself is written once, at the table's place.
+  const std::vector<TableArray> table = table_arrays(p);
+  auto next = table.begin();
+  const auto add_table_until = [&](int order) {
+    for (; next != table.end() && next->order < order; ++next) {
+      arrays->AddArray(make_table_array(p, *next));
+    }
+  };
+  const auto in_table = [&](const auto& field) {
+    return std::any_of(table.begin(), table.end(),
+                       [&](const TableArray& array) { return is_table_array(p, array, field); });
+  };
+  add_table_until(kVtkDerivedScalarsOrder);
   for (const VtkSeriesWriter::ScalarField& field : scalars) {
-    arrays->AddArray(scalar_array(field.name, *field.values));
+    if (!in_table(field)) arrays->AddArray(scalar_array(field.name, *field.values));
   }
+  add_table_until(kVtkDerivedVectorsOrder);
   for (const VtkSeriesWriter::VectorField& field : vectors) {
-    arrays->AddArray(vector_array(field.name, *field.x, *field.y, *field.z));
+    if (!in_table(field)) {
+      arrays->AddArray(vector_array(field.name, *field.x, *field.y, *field.z));
+    }
   }
+  add_table_until(std::numeric_limits<int>::max());
   return data;
 }
 
@@ -351,18 +444,27 @@ void check_inputs(const Particles& p, const std::vector<PlaneWall>& walls,
                   const std::vector<VtkSeriesWriter::ScalarField>& scalars,
                   const std::vector<VtkSeriesWriter::VectorField>& vectors) {
   const std::size_t n = p.size();
-  for (const std::vector<double>* field :
-       {&p.x, &p.y, &p.z, &p.vx, &p.vy, &p.vz, &p.fx, &p.fy, &p.fz, &p.radius}) {
-    if (field->size() != n)
-      throw std::invalid_argument("VTK output: particle arrays differ in size");
+  const std::vector<TableArray> table = table_arrays(p);
+  bool sizes_agree = p.x.size() == n && p.y.size() == n && p.z.size() == n;
+  for (const TableArray& array : table) {
+    for (const ParticleField* row : array.rows) {
+      if (row != nullptr) {
+        std::visit([&](auto member) { sizes_agree = sizes_agree && (p.*member).size() == n; },
+                   row->member);
+      }
+    }
   }
-  if (p.material.size() != n)
-    throw std::invalid_argument("VTK output: particle arrays differ in size");
-  // Duplicate names would make ParaView show only one of the arrays.
-  std::set<std::string> names{"id", "radius", "velocity", "force", "material"};
-  const auto check_name = [&](const std::string& name) {
+  if (!sizes_agree) throw std::invalid_argument("VTK output: particle arrays differ in size");
+  // Duplicate names would make ParaView show only one of the arrays. A table array passed again
+  // as itself is allowed: it is written once, at its place in the table.
+  std::set<std::string> names;
+  for (const TableArray& array : table) names.emplace(array.name);
+  const auto check_name = [&](const std::string& name, const auto& field) {
     if (name.empty()) throw std::invalid_argument("VTK output: extra field with an empty name");
-    if (!names.insert(name).second) {
+    const bool itself = std::any_of(table.begin(), table.end(), [&](const TableArray& array) {
+      return array.name == name && is_table_array(p, array, field);
+    });
+    if (!itself && !names.insert(name).second) {
       throw std::invalid_argument("VTK output: field \"" + name + "\" is given twice");
     }
   };
@@ -373,11 +475,11 @@ void check_inputs(const Particles& p, const std::vector<PlaneWall>& walls,
     }
   };
   for (const VtkSeriesWriter::ScalarField& field : scalars) {
-    check_name(field.name);
+    check_name(field.name, field);
     check_values(field.name, field.values);
   }
   for (const VtkSeriesWriter::VectorField& field : vectors) {
-    check_name(field.name);
+    check_name(field.name, field);
     check_values(field.name, field.x);
     check_values(field.name, field.y);
     check_values(field.name, field.z);

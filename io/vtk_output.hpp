@@ -45,13 +45,14 @@ struct ContactRecord {
 /// that stops early still opens in ParaView.
 class VtkSeriesWriter {
  public:
-  /// A per-particle scalar besides the fixed arrays; `values` has one entry per particle, in the
-  /// order of Particles, and must stay valid during write_frame().
+  /// A per-particle scalar the caller derives per frame (coordination, bond count), written
+  /// besides the particles' own fields; `values` has one entry per particle, in the order of
+  /// Particles, and must stay valid during write_frame().
   struct ScalarField {
     std::string name;
     const std::vector<double>* values = nullptr;
   };
-  /// A per-particle 3-vector besides the fixed arrays, as three component arrays (the SoA layout).
+  /// A derived per-particle 3-vector, as three component arrays (the SoA layout).
   struct VectorField {
     std::string name;
     const std::vector<double>* x = nullptr;
@@ -75,8 +76,13 @@ class VtkSeriesWriter {
   /// Write one frame at simulated time @p time, which must be finite and later than the previous
   /// frame's (a .pvd with repeated times is ambiguous in ParaView).
   ///
-  /// particles: points (Float64) with a vertex cell each; point arrays "id" (Int64), "radius",
-  ///   "velocity" (3 components), "force" (3), "material" (Int32), then every extra field.
+  /// particles: points (Float64) with a vertex cell each; a point array for every field of
+  ///   kParticleFields with a VTK name that the particles have (thermal ones only with
+  ///   temperatures), by ascending vtk_order: "id" (Int64), "radius", "velocity" (3 components),
+  ///   "force" (3), "material" (Int32), the derived @p scalars, "temperature",
+  ///   "peak_temperature", "heat_rate", the derived @p vectors, "angular_velocity", "torque".
+  ///   A derived field that is one of the particles' own arrays under its table name is written
+  ///   once, at its table place; any other repeated name is refused.
   /// contacts: one line per record, two points of its own each; cell arrays "overlap",
   ///   "normal_force", "bonded" (UInt8), "id_i", "id_j" (Int64).
   /// walls: one polygon per PlaneWall, a square centred at the projection of the domain centre

@@ -10,6 +10,8 @@
 #include <fstream>
 #include <iterator>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include "io/case_file.hpp"
 #include "io/checkpoint.hpp"
@@ -203,6 +205,62 @@ TEST_F(BadCheckpoint, OtherCaseIsRefused) {
   Case other = short_packing(0.0006);
   other.materials[0].density = 2600.0;
   EXPECT_NE(error_with(good_, other).find("different case"), std::string::npos);
+}
+
+/// Two particles under a moving roller, with temperatures: a restart of every kind of block.
+const std::string kToolCase = R"(materials:
+  powder: {density: 2000, youngs_modulus: 1.0e9, poisson_ratio: 0.2, specific_heat: 500,
+           thermal_conductivity: 5}
+  steel: {density: 7800, youngs_modulus: 2.0e9, poisson_ratio: 0.3, specific_heat: 450}
+contact: {damping_ratio: 0.1, friction: 0.3}
+bond: {alpha: 1, equilibrium_overlap: 1.0e-6, damping_ratio: 1.0, criterion: never}
+thermal: {initial_temperature: 300, convection_coefficient: 10}
+time: {step: 2.0e-8, end: 2.0e-7}
+gravity: [0, 0, -9.81]
+domain: {min: [0, 0, 0], max: [0.01, 0.01, 0.01]}
+walls:
+  - {type: plane, point: [0, 0, 0], normal: [0, 0, 1], material: steel, temperature: 320}
+  - type: roller
+    point: [0.002, 0.005, 0.006]
+    radius: 0.001
+    material: steel
+    motion: [{time: 0, velocity: [0.05, 0, 0]}]
+particles:
+  - {material: powder, radius: 1.0e-4, position: [0.005, 0.005, 0.001]}
+  - {material: powder, radius: 1.2e-4, position: [0.006, 0.005, 0.001]}
+output: {directory: out}
+)";
+
+// Issue 13: the fingerprint covers the whole case. A restart of a case that differs in anything
+// that shapes the trajectory is refused; a later end and other outputs are accepted.
+TEST(Restart, OnlyEndTimeAndOutputsMayChange) {
+  const fs::path directory = testing::fresh_directory("run_io_tool_case");
+  testing::quiet_run(parse_case(kToolCase, "tool.yaml"), directory);
+  const std::string checkpoint = (directory / "checkpoint.bin").string();
+  const auto restart_error = [&](const std::vector<std::string>& changes) -> std::string {
+    std::vector<std::string> overrides = {"time.end=4.0e-7"};
+    overrides.insert(overrides.end(), changes.begin(), changes.end());
+    const fs::path continued = testing::fresh_directory("run_io_tool_case_continued");
+    fs::copy(directory, continued);
+    try {
+      testing::quiet_run(parse_case(kToolCase, "tool.yaml", overrides), continued, checkpoint);
+    } catch (const CaseError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  for (const char* change : {"materials.powder.youngs_modulus=1.1e9",  // a material property
+                             "walls.1.motion.0.velocity.0=0.06",       // a tool motion key
+                             "thermal.convection_coefficient=11",      // a thermal key
+                             "bond.damping_ratio=0.9",                 // the bond law
+                             "particles.1.position.0=0.0061",          // one particle's position
+                             "walls.0.temperature=330"}) {
+    EXPECT_NE(restart_error({change}).find("different case"), std::string::npos) << change;
+  }
+  EXPECT_EQ(restart_error({}), "");
+  EXPECT_EQ(restart_error({"output.directory=elsewhere", "output.history_interval=4.0e-8",
+                           "output.vtk_interval=1.0e-7", "output.checkpoint_interval=1.0e-7"}),
+            "");
 }
 
 TEST(BlowUp, TooLargeTimeStepIsCaughtWithItsCause) {

@@ -137,18 +137,25 @@ TEST_F(VtkOutput, ThreeFramesReadBackExactly) {
   Particles p = make_particles();
   const Domain domain = make_domain();
   const std::vector<PlaneWall> walls = make_walls();
-  std::vector<double> temperature(kParticles), wx(kParticles), wy(kParticles), wz(kParticles);
+  // Angular velocity and temperature are the particles' own fields (kParticleFields); the
+  // coordination is a field derived per frame, passed by the caller.
+  p.temperature.assign(kParticles, 0.0);
+  p.peak_temperature.assign(kParticles, 0.0);
+  p.inv_heat_capacity.assign(kParticles, 0.0);
+  p.heat_rate.assign(kParticles, 0.0);
+  std::vector<double> coordination(kParticles);
   const double times[3] = {0.0, 0.5e-3, 1e-3};
   for (int frame = 0; frame < 3; ++frame) {
     set_forces(p, frame);
     for (std::size_t i = 0; i < kParticles; ++i) {
-      temperature[i] = 293.15 + 0.1 * static_cast<double>(i) + frame;
-      wx[i] = 1.0 / (static_cast<double>(i) + 1.0);
-      wy[i] = -static_cast<double>(frame);
-      wz[i] = std::exp(-static_cast<double>(i));
+      p.temperature[i] = 293.15 + 0.1 * static_cast<double>(i) + frame;
+      p.wx[i] = 1.0 / (static_cast<double>(i) + 1.0);
+      p.wy[i] = -static_cast<double>(frame);
+      p.wz[i] = std::exp(-static_cast<double>(i));
+      coordination[i] = static_cast<double>((i + static_cast<std::size_t>(frame)) % 7);
     }
     writer.write_frame(times[frame], p, make_contacts(p, frame), walls, domain,
-                       {{"temperature", &temperature}}, {{"angular_velocity", &wx, &wy, &wz}});
+                       {{"coordination", &coordination}});
     EXPECT_EQ(writer.frames(), static_cast<std::size_t>(frame + 1));
 
     // Each frame is complete on disk before the next one is written.
@@ -157,8 +164,8 @@ TEST_F(VtkOutput, ThreeFramesReadBackExactly) {
     const VtpContents particles = read_vtp((dir / name).string());
     ASSERT_EQ(particles.points.size(), kParticles);
     EXPECT_EQ(particles.verts, kParticles);
-    for (const char* array :
-         {"id", "radius", "velocity", "force", "material", "temperature", "angular_velocity"}) {
+    for (const char* array : {"id", "radius", "velocity", "force", "material", "coordination",
+                              "temperature", "angular_velocity"}) {
       ASSERT_NE(particles.point_array(array), nullptr) << array;
       EXPECT_EQ(particles.point_array(array)->values.size() /
                     static_cast<std::size_t>(particles.point_array(array)->components),
@@ -185,11 +192,12 @@ TEST_F(VtkOutput, ThreeFramesReadBackExactly) {
       EXPECT_EQ(f[3 * i], p.fx[i]);
       EXPECT_EQ(f[3 * i + 1], p.fy[i]);
       EXPECT_EQ(f[3 * i + 2], p.fz[i]);
-      EXPECT_EQ(particles.point_array("temperature")->values[i], temperature[i]);
+      EXPECT_EQ(particles.point_array("temperature")->values[i], p.temperature[i]);
+      EXPECT_EQ(particles.point_array("coordination")->values[i], coordination[i]);
       const std::vector<double>& w = particles.point_array("angular_velocity")->values;
-      EXPECT_EQ(w[3 * i], wx[i]);
-      EXPECT_EQ(w[3 * i + 1], wy[i]);
-      EXPECT_EQ(w[3 * i + 2], wz[i]);
+      EXPECT_EQ(w[3 * i], p.wx[i]);
+      EXPECT_EQ(w[3 * i + 1], p.wy[i]);
+      EXPECT_EQ(w[3 * i + 2], p.wz[i]);
     }
 
     std::snprintf(name, sizeof name, "contacts_%06d.vtp", frame);
@@ -343,6 +351,71 @@ TEST_F(VtkOutput, FailedCollectionIsRolledBack) {
   for (const char* series : {"particles.pvd", "contacts.pvd", "walls.pvd"}) {
     EXPECT_EQ(pvd_entries(root_ / series).size(), 1u) << series;
   }
+}
+
+/// make_particles() with temperatures, as a thermal run has them.
+Particles thermal_particles() {
+  Particles p = make_particles();
+  for (std::vector<double>* field :
+       {&p.temperature, &p.peak_temperature, &p.inv_heat_capacity, &p.heat_rate}) {
+    field->resize(kParticles);
+    for (std::size_t i = 0; i < kParticles; ++i) field->at(i) = 300.0 + static_cast<double>(i);
+  }
+  return p;
+}
+
+// The particle file's arrays come from kParticleFields in their VTK order, with the caller's
+// derived arrays at their places: the order every file of earlier versions has.
+TEST_F(VtkOutput, ParticleArraysFollowTheFieldTable) {
+  const Particles p = thermal_particles();
+  const std::vector<double> coordination(kParticles, 2.0), bond_count(kParticles, 1.0);
+  VtkSeriesWriter writer((root_ / "vtk").string());
+  writer.write_frame(0.0, p, {}, {}, make_domain(),
+                     {{"coordination", &coordination}, {"bond_count", &bond_count}});
+  const VtpContents file = read_vtp((root_ / "vtk" / "particles_000000.vtp").string());
+  std::vector<std::string> names;
+  for (const VtpArray& array : file.point_arrays) names.push_back(array.name);
+  const std::vector<std::string> expected = {"id",         "radius",           "velocity",
+                                             "force",      "material",         "coordination",
+                                             "bond_count", "temperature",      "peak_temperature",
+                                             "heat_rate",  "angular_velocity", "torque"};
+  EXPECT_EQ(names, expected);
+  EXPECT_EQ(file.point_array("torque")->components, 3);
+  EXPECT_EQ(file.point_array("heat_rate")->values[4], p.heat_rate[4]);
+
+  // Without temperatures the thermal arrays are absent.
+  VtkSeriesWriter plain_writer((root_ / "plain").string());
+  plain_writer.write_frame(0.0, make_particles(), {}, {}, make_domain());
+  const VtpContents plain = read_vtp((root_ / "plain" / "particles_000000.vtp").string());
+  EXPECT_EQ(plain.point_array("temperature"), nullptr);
+  EXPECT_NE(plain.point_array("angular_velocity"), nullptr);
+}
+
+// A caller that still passes the particles' own fields (as the run's VTK observer did before the
+// table) gets the same bytes as one that passes only its derived arrays.
+TEST_F(VtkOutput, OwnFieldsPassedAgainAreWrittenOnce) {
+  const Particles p = thermal_particles();
+  const std::vector<double> coordination(kParticles, 2.0), bond_count(kParticles, 1.0);
+  VtkSeriesWriter derived_only((root_ / "derived").string());
+  derived_only.write_frame(0.0, p, {}, {}, make_domain(),
+                           {{"coordination", &coordination}, {"bond_count", &bond_count}});
+  VtkSeriesWriter both((root_ / "both").string());
+  both.write_frame(0.0, p, {}, {}, make_domain(),
+                   {{"coordination", &coordination},
+                    {"bond_count", &bond_count},
+                    {"temperature", &p.temperature},
+                    {"peak_temperature", &p.peak_temperature},
+                    {"heat_rate", &p.heat_rate}},
+                   {{"angular_velocity", &p.wx, &p.wy, &p.wz}, {"torque", &p.tx, &p.ty, &p.tz}});
+  EXPECT_TRUE(testing::file_bytes(root_ / "derived" / "particles_000000.vtp") ==
+              testing::file_bytes(root_ / "both" / "particles_000000.vtp"));
+  // Another array under a field's name is refused.
+  const std::vector<double> other(kParticles, 0.0);
+  EXPECT_THROW(both.write_frame(1.0, p, {}, {}, make_domain(), {{"temperature", &other}}),
+               std::invalid_argument);
+  EXPECT_THROW(
+      both.write_frame(1.0, p, {}, {}, make_domain(), {}, {{"torque", &p.wx, &p.wy, &p.wz}}),
+      std::invalid_argument);
 }
 
 TEST_F(VtkOutput, RejectsBadInputBeforeWriting) {

@@ -1,12 +1,17 @@
 #pragma once
 /// @file particles.hpp
-/// Particle storage as a structure of arrays: one contiguous array per field.
+/// Particle storage as a structure of arrays: one contiguous array per field, and the one table
+/// of those fields (kParticleFields) that reordering, checkpoints, the last-good snapshot and the
+/// VTK writer read. Kernels index the plain arrays; only bookkeeping goes through the table.
 
 #include <omp.h>
 
 #include <algorithm>
+#include <cstddef>
 #include <cstdint>
-#include <initializer_list>
+#include <string_view>
+#include <type_traits>
+#include <variant>
 #include <vector>
 
 namespace bondem {
@@ -23,7 +28,7 @@ inline int threads_in_use(std::size_t particles) {
 }
 
 /// Per-particle state. Index i addresses the same particle in every array; `id` is the stable
-/// identity that survives reordering.
+/// identity that survives reordering. Every array is listed once in kParticleFields below.
 struct Particles {
   std::vector<std::int64_t> id;
   std::vector<std::int32_t> material;
@@ -61,83 +66,194 @@ struct Particles {
     return 1.0 / (0.4 * mass[i] * radius[i] * radius[i]);
   }
 
-  /// Append one particle at rest force-wise; returns its index.
+  /// Append one particle at rest force-wise; returns its index. Every other field of the table
+  /// (thermal ones only when temperatures are tracked) gets zeros.
   std::size_t add(std::int64_t particle_id, std::int32_t material_index, double particle_radius,
-                  double particle_mass, const double position[3], const double velocity[3]) {
-    id.push_back(particle_id);
-    material.push_back(material_index);
-    x.push_back(position[0]);
-    y.push_back(position[1]);
-    z.push_back(position[2]);
-    vx.push_back(velocity[0]);
-    vy.push_back(velocity[1]);
-    vz.push_back(velocity[2]);
-    fx.push_back(0.0);
-    fy.push_back(0.0);
-    fz.push_back(0.0);
-    radius.push_back(particle_radius);
-    mass.push_back(particle_mass);
-    for (std::vector<double>* field : {&wx, &wy, &wz, &tx, &ty, &tz}) field->push_back(0.0);
-    wall_slip.resize(wall_slip.size() + static_cast<std::size_t>(3 * walls), 0.0);
-    return id.size() - 1;
-  }
+                  double particle_mass, const double position[3], const double velocity[3]);
 
-  /// Reorder every array so that new index k holds old particle order[k].
-  void permute(const std::vector<std::uint32_t>& order) {
-    permute_field(id, order);
-    permute_field(material, order);
-    for (std::vector<double>* field : {&x,
-                                       &y,
-                                       &z,
-                                       &vx,
-                                       &vy,
-                                       &vz,
-                                       &fx,
-                                       &fy,
-                                       &fz,
-                                       &radius,
-                                       &mass,
-                                       &wx,
-                                       &wy,
-                                       &wz,
-                                       &tx,
-                                       &ty,
-                                       &tz,
-                                       &temperature,
-                                       &peak_temperature,
-                                       &inv_heat_capacity,
-                                       &heat_rate}) {
-      if (!field->empty()) permute_field(*field, order);
-    }
-    const auto stride = static_cast<std::size_t>(3 * walls);
-    std::vector<double> slip(wall_slip.size());
-    for (std::size_t k = 0; k < order.size(); ++k) {
-      std::copy_n(wall_slip.begin() + static_cast<std::ptrdiff_t>(order[k] * stride), stride,
-                  slip.begin() + static_cast<std::ptrdiff_t>(k * stride));
-    }
-    wall_slip.swap(slip);
-  }
+  /// Reorder every field marked kReordered so that new index k holds old particle order[k].
+  void permute(const std::vector<std::uint32_t>& order);
 
- private:
-  template <class T>
-  static void permute_field(std::vector<T>& field, const std::vector<std::uint32_t>& order) {
-    std::vector<T> reordered(field.size());
-    for (std::size_t k = 0; k < order.size(); ++k) reordered[k] = field[order[k]];
-    field.swap(reordered);
-  }
+  /// Start tracking temperatures: every kThermal field gets a zero per particle, for the scene
+  /// to fill in (a thermal field added to the table then needs no line of its own there).
+  void track_temperatures();
 };
 
-/// Copies into @p to the fields a final-state file holds (ids, positions, velocities, radii):
-/// the last good state kept for a blow-up report, at about a third of the memory of a full copy.
+/// What a particle field takes part in: bits of ParticleField::flags.
+enum ParticleFieldFlag : unsigned {
+  kReordered = 1U << 0U,     ///< moved with the particles by Particles::permute
+  kCheckpointed = 1U << 1U,  ///< written to and read from checkpoints (exact restarts)
+  kLastGood = 1U << 2U,      ///< copied by keep_last_good (the fields of a final-state file)
+  kThermal = 1U << 3U,       ///< present (non-empty) only when temperatures are tracked
+  kPerWall = 1U << 4U,       ///< 3 values per wall slot and particle (Particles::walls), not 1
+};
+
+/// Pointer to one array of Particles, of any of the element types the table holds.
+using ParticleMember =
+    std::variant<std::vector<std::int64_t> Particles::*, std::vector<std::int32_t> Particles::*,
+                 std::vector<double> Particles::*>;
+
+/// VTK place of the arrays a caller derives per frame (VtkSeriesWriter::write_frame's scalars
+/// and vectors): the particle file lists its arrays by ascending ParticleField::vtk_order.
+inline constexpr int kVtkDerivedScalarsOrder = 10;
+/// See kVtkDerivedScalarsOrder.
+inline constexpr int kVtkDerivedVectorsOrder = 20;
+
+/// One row of the particle-field table.
+struct ParticleField {
+  std::string_view name;  ///< the member's name
+  ParticleMember member;  ///< the array itself
+  unsigned flags = 0;     ///< ParticleFieldFlag bits
+  /// Name of the VTK point array it is written to; empty: not written (positions are the
+  /// points themselves). Three rows with one name and components 0, 1, 2 form one 3-vector.
+  std::string_view vtk_name = {};
+  int vtk_component = -1;  ///< -1: a scalar array; 0, 1, 2: x, y, z of a vector array
+  /// Place among the particle file's point arrays (ascending); the derived arrays of the caller
+  /// sit at kVtkDerivedScalarsOrder and kVtkDerivedVectorsOrder.
+  int vtk_order = 0;
+};
+
+/// Every particle array, once. Table order is checkpoint order within each of its sections
+/// (per-particle, per-wall, thermal: see io/checkpoint.cpp); keep new rows at the end of theirs.
+inline constexpr ParticleField kParticleFields[] = {
+    {"id", &Particles::id, kReordered | kCheckpointed | kLastGood, "id", -1, 1},
+    {"material", &Particles::material, kReordered | kCheckpointed, "material", -1, 5},
+    {"x", &Particles::x, kReordered | kCheckpointed | kLastGood},
+    {"y", &Particles::y, kReordered | kCheckpointed | kLastGood},
+    {"z", &Particles::z, kReordered | kCheckpointed | kLastGood},
+    {"vx", &Particles::vx, kReordered | kCheckpointed | kLastGood, "velocity", 0, 3},
+    {"vy", &Particles::vy, kReordered | kCheckpointed | kLastGood, "velocity", 1, 3},
+    {"vz", &Particles::vz, kReordered | kCheckpointed | kLastGood, "velocity", 2, 3},
+    {"fx", &Particles::fx, kReordered | kCheckpointed, "force", 0, 4},
+    {"fy", &Particles::fy, kReordered | kCheckpointed, "force", 1, 4},
+    {"fz", &Particles::fz, kReordered | kCheckpointed, "force", 2, 4},
+    {"radius", &Particles::radius, kReordered | kCheckpointed | kLastGood, "radius", -1, 2},
+    {"mass", &Particles::mass, kReordered | kCheckpointed},
+    {"wx", &Particles::wx, kReordered | kCheckpointed, "angular_velocity", 0, 21},
+    {"wy", &Particles::wy, kReordered | kCheckpointed, "angular_velocity", 1, 21},
+    {"wz", &Particles::wz, kReordered | kCheckpointed, "angular_velocity", 2, 21},
+    {"tx", &Particles::tx, kReordered | kCheckpointed, "torque", 0, 22},
+    {"ty", &Particles::ty, kReordered | kCheckpointed, "torque", 1, 22},
+    {"tz", &Particles::tz, kReordered | kCheckpointed, "torque", 2, 22},
+    {"wall_slip", &Particles::wall_slip, kReordered | kCheckpointed | kPerWall},
+    {"temperature", &Particles::temperature, kReordered | kCheckpointed | kThermal, "temperature",
+     -1, 11},
+    {"peak_temperature", &Particles::peak_temperature, kReordered | kCheckpointed | kThermal,
+     "peak_temperature", -1, 12},
+    {"inv_heat_capacity", &Particles::inv_heat_capacity, kReordered | kCheckpointed | kThermal},
+    {"heat_rate", &Particles::heat_rate, kReordered | kCheckpointed | kThermal, "heat_rate", -1,
+     13},
+};
+
+/// Whether @p field has every bit of @p flags.
+constexpr bool has(const ParticleField& field, unsigned flags) {
+  return (field.flags & flags) == flags;
+}
+
+/// Values @p field holds per particle of @p p: 3 per wall slot for kPerWall fields, else 1.
+inline std::size_t values_per_particle(const ParticleField& field, const Particles& p) {
+  return has(field, kPerWall) ? static_cast<std::size_t>(3 * p.walls) : 1;
+}
+
+/// Whether @p field is in use in @p p: thermal fields only when temperatures are tracked.
+inline bool in_use(const ParticleField& field, const Particles& p) {
+  return !has(field, kThermal) || p.thermal();
+}
+
+/// Consistency of the table, checked at compile time: unique names; a vector's three components
+/// share its VTK order and are doubles; VTK arrays and their orders are unique and stay clear of
+/// the derived arrays' places; per-wall fields are doubles and not written to VTK.
+constexpr bool particle_fields_consistent() {
+  constexpr std::size_t kDouble = 2;  // variant index of std::vector<double> Particles::*
+  for (const ParticleField& a : kParticleFields) {
+    if (a.name.empty()) return false;
+    if (has(a, kPerWall) && (a.member.index() != kDouble || !a.vtk_name.empty())) return false;
+    if (a.vtk_name.empty()) continue;
+    if (a.vtk_order == kVtkDerivedScalarsOrder || a.vtk_order == kVtkDerivedVectorsOrder) {
+      return false;
+    }
+    if (a.vtk_component >= 0 && a.member.index() != kDouble) return false;
+    int components = 0;
+    for (const ParticleField& b : kParticleFields) {
+      if (&a != &b && a.name == b.name) return false;
+      if (b.vtk_name.empty()) continue;
+      if ((a.vtk_name == b.vtk_name) != (a.vtk_order == b.vtk_order)) return false;
+      if (a.vtk_name != b.vtk_name) continue;
+      if (a.vtk_component < 0 && &a != &b) return false;  // a scalar has one row
+      if (b.vtk_component < 0 || b.vtk_component > 2) continue;
+      components |= 1 << b.vtk_component;
+      if (&a != &b && a.vtk_component == b.vtk_component) return false;
+    }
+    if (a.vtk_component >= 0 && components != 7) return false;
+  }
+  return true;
+}
+static_assert(particle_fields_consistent(), "kParticleFields: see particle_fields_consistent()");
+
+inline std::size_t Particles::add(std::int64_t particle_id, std::int32_t material_index,
+                                  double particle_radius, double particle_mass,
+                                  const double position[3], const double velocity[3]) {
+  const std::size_t index = size();
+  const bool tracked = thermal();
+  for (const ParticleField& field : kParticleFields) {
+    if (has(field, kThermal) && !tracked) continue;
+    const std::size_t count = values_per_particle(field, *this);
+    std::visit([&](auto member) { (this->*member).resize((this->*member).size() + count); },
+               field.member);
+  }
+  id[index] = particle_id;
+  material[index] = material_index;
+  x[index] = position[0];
+  y[index] = position[1];
+  z[index] = position[2];
+  vx[index] = velocity[0];
+  vy[index] = velocity[1];
+  vz[index] = velocity[2];
+  radius[index] = particle_radius;
+  mass[index] = particle_mass;
+  return index;
+}
+
+inline void Particles::permute(const std::vector<std::uint32_t>& order) {
+  for (const ParticleField& field : kParticleFields) {
+    if (!has(field, kReordered)) continue;
+    const std::size_t stride = values_per_particle(field, *this);
+    std::visit(
+        [&](auto member) {
+          auto& values = this->*member;
+          if (values.empty()) return;  // thermal fields of a run without temperatures
+          std::remove_reference_t<decltype(values)> reordered(values.size());
+          if (stride == 1) {
+            for (std::size_t k = 0; k < order.size(); ++k) reordered[k] = values[order[k]];
+          } else {
+            for (std::size_t k = 0; k < order.size(); ++k) {
+              std::copy_n(values.begin() + static_cast<std::ptrdiff_t>(order[k] * stride), stride,
+                          reordered.begin() + static_cast<std::ptrdiff_t>(k * stride));
+            }
+          }
+          values.swap(reordered);
+        },
+        field.member);
+  }
+}
+
+inline void Particles::track_temperatures() {
+  for (const ParticleField& field : kParticleFields) {
+    if (has(field, kThermal)) {
+      std::visit([&](auto member) { (this->*member).assign(size(), {}); }, field.member);
+    }
+  }
+}
+
+/// Copies into @p to the fields marked kLastGood (ids, positions, velocities, radii: what a
+/// final-state file holds): the last good state kept for a blow-up report, at about a third of
+/// the memory of a full copy.
 inline void keep_last_good(const Particles& from, Particles& to) {
-  to.id = from.id;
-  to.x = from.x;
-  to.y = from.y;
-  to.z = from.z;
-  to.vx = from.vx;
-  to.vy = from.vy;
-  to.vz = from.vz;
-  to.radius = from.radius;
+  for (const ParticleField& field : kParticleFields) {
+    if (has(field, kLastGood)) {
+      std::visit([&](auto member) { to.*member = from.*member; }, field.member);
+    }
+  }
 }
 
 }  // namespace bondem

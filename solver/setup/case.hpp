@@ -3,6 +3,7 @@
 /// The validated description of a simulation case, as read from a case file (io/case_file.hpp).
 
 #include <Eigen/Core>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -95,6 +96,12 @@ struct Case {
   std::optional<Box> analysis_region;
   /// Spread layer to measure at the end (solid fraction profile, roughness, bare substrate).
   std::optional<LayerRegion> layer;
+  /// Every value the case-file reader read, by dotted key ("materials.steel.density",
+  /// "walls.0.motion.1.velocity.2"), as it resolved it (numbers in their shortest exact form),
+  /// and "{}" for every mapping it entered: sorted, so it is a canonical text of the file. It
+  /// enters the checkpoint's case fingerprint whole, so no key can be left out of it. Empty for
+  /// cases built in code.
+  std::map<std::string, std::string> settings;
 
   /// Bond-law coefficients of material pair (a, b).
   PairCoefficients pair_coefficients(int a, int b) const;

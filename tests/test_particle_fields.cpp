@@ -1,0 +1,168 @@
+// The table of particle fields (kParticleFields) and what reads it: add, permute, keep_last_good
+// and the checkpoint writer and reader. Every test walks the table, so a field added to it is
+// covered without touching these tests.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <filesystem>
+#include <iterator>
+#include <string>
+#include <type_traits>
+#include <variant>
+#include <vector>
+
+#include "io/checkpoint.hpp"
+#include "run_helpers.hpp"
+#include "solver/engine/particles.hpp"
+
+namespace bondem {
+namespace {
+
+constexpr std::size_t kCount = 7;
+constexpr int kWalls = 2;
+
+/// Value k of row @p row: distinct across rows and entries, exact in every element type.
+double value_of(std::size_t row, std::size_t k) {
+  return static_cast<double>(1000 * (row + 1) + k);
+}
+
+/// kCount particles with walls and temperatures, every field of the table filled with
+/// value_of(row, k).
+Particles filled() {
+  Particles p;
+  p.walls = kWalls;
+  std::size_t row = 0;
+  for (const ParticleField& field : kParticleFields) {
+    const std::size_t per = has(field, kPerWall) ? 3 * kWalls : 1;
+    std::visit(
+        [&](auto member) {
+          auto& values = p.*member;
+          values.resize(kCount * per);
+          for (std::size_t k = 0; k < values.size(); ++k) {
+            values[k] =
+                static_cast<typename std::decay_t<decltype(values)>::value_type>(value_of(row, k));
+          }
+        },
+        field.member);
+    ++row;
+  }
+  return p;
+}
+
+/// The values of @p field in @p p, as doubles.
+std::vector<double> values(const Particles& p, const ParticleField& field) {
+  return std::visit(
+      [&](auto member) {
+        const auto& v = p.*member;
+        return std::vector<double>(v.begin(), v.end());
+      },
+      field.member);
+}
+
+TEST(ParticleFields, AddGrowsEveryFieldInUse) {
+  for (const bool thermal : {false, true}) {
+    Particles p;
+    p.set_wall_count(kWalls);
+    const double position[3] = {1.0, 2.0, 3.0};
+    const double velocity[3] = {4.0, 5.0, 6.0};
+    p.add(9, 1, 0.5, 2.0, position, velocity);
+    if (thermal) {
+      p.track_temperatures();
+      for (const ParticleField& field : kParticleFields) {
+        EXPECT_EQ(values(p, field).size(), values_per_particle(field, p)) << field.name;
+      }
+      p.temperature[0] = 300.0;
+    }
+    p.add(10, 0, 0.25, 1.0, position, velocity);
+    ASSERT_EQ(p.size(), 2u);
+    EXPECT_EQ(p.thermal(), thermal);
+    for (const ParticleField& field : kParticleFields) {
+      const std::size_t expected =
+          in_use(field, p) ? 2 * values_per_particle(field, p) : std::size_t{0};
+      EXPECT_EQ(values(p, field).size(), expected) << field.name << (thermal ? " thermal" : "");
+    }
+    EXPECT_EQ(p.id[1], 10);
+    EXPECT_EQ(p.material[1], 0);
+    EXPECT_EQ(p.radius[1], 0.25);
+    EXPECT_EQ(p.mass[1], 1.0);
+    EXPECT_EQ(p.z[1], 3.0);
+    EXPECT_EQ(p.vx[1], 4.0);
+    EXPECT_EQ(p.fx[1], 0.0);
+    EXPECT_EQ(p.wall_slip.back(), 0.0);
+    if (thermal) {
+      EXPECT_EQ(p.temperature[0], 300.0);
+      EXPECT_EQ(p.temperature[1], 0.0);
+    }
+  }
+}
+
+TEST(ParticleFields, PermuteMovesEveryReorderedFieldWithItsParticle) {
+  const Particles before = filled();
+  Particles after = before;
+  const std::vector<std::uint32_t> order = {3, 0, 6, 1, 5, 2, 4};
+  after.permute(order);
+  for (const ParticleField& field : kParticleFields) {
+    ASSERT_TRUE(has(field, kReordered)) << field.name << ": every field today moves";
+    const std::size_t per = values_per_particle(field, before);
+    const std::vector<double> old_values = values(before, field);
+    const std::vector<double> new_values = values(after, field);
+    ASSERT_EQ(new_values.size(), kCount * per) << field.name;
+    for (std::size_t k = 0; k < kCount; ++k) {
+      for (std::size_t c = 0; c < per; ++c) {
+        EXPECT_EQ(new_values[k * per + c], old_values[order[k] * per + c]) << field.name;
+      }
+    }
+  }
+}
+
+TEST(ParticleFields, KeepLastGoodCopiesExactlyTheMarkedFields) {
+  const Particles from = filled();
+  Particles to;
+  keep_last_good(from, to);
+  for (const ParticleField& field : kParticleFields) {
+    if (has(field, kLastGood)) {
+      EXPECT_EQ(values(to, field), values(from, field)) << field.name;
+    } else {
+      EXPECT_TRUE(values(to, field).empty()) << field.name;
+    }
+  }
+  // What a final-state file needs: ids, positions, velocities, radii.
+  for (const char* name : {"id", "x", "y", "z", "vx", "vy", "vz", "radius"}) {
+    EXPECT_FALSE(values(to, *std::find_if(std::begin(kParticleFields), std::end(kParticleFields),
+                                          [&](const ParticleField& f) { return f.name == name; }))
+                     .empty())
+        << name;
+  }
+}
+
+TEST(ParticleFields, CheckpointKeepsEveryCheckpointedFieldExactly) {
+  const std::filesystem::path directory = testing::fresh_directory("particle_fields_checkpoint");
+  for (const bool thermal : {true, false}) {
+    Checkpoint written;
+    written.particles = filled();
+    if (!thermal) {
+      for (const ParticleField& field : kParticleFields) {
+        if (has(field, kThermal)) {
+          std::visit([&](auto member) { (written.particles.*member).clear(); }, field.member);
+        }
+      }
+    }
+    for (auto* field :
+         {&written.stepper.list.x0, &written.stepper.list.y0, &written.stepper.list.z0}) {
+      field->assign(kCount, 0.5);
+    }
+    const std::string path = (directory / "fields.bin").string();
+    write_checkpoint(path, written);
+    const Checkpoint read = read_checkpoint(path);
+    EXPECT_EQ(read.particles.walls, kWalls);
+    for (const ParticleField& field : kParticleFields) {
+      ASSERT_TRUE(has(field, kCheckpointed)) << field.name << ": every field today is kept";
+      EXPECT_EQ(values(read.particles, field), values(written.particles, field))
+          << field.name << (thermal ? " thermal" : "");
+    }
+  }
+}
+
+}  // namespace
+}  // namespace bondem
