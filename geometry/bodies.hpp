@@ -24,49 +24,13 @@ struct MotionKey {
 
 /// A rigid tool with prescribed motion.
 struct Body {
-  /// One of the shapes of ToolShapes; converts explicitly to its number in that list.
-  struct Shape : ToolShapes {
-    using ToolShapes::ToolShapes;
-    using ToolShapes::operator=;
-    /// The shape's number in ToolShapes (box 0 and cylinder 1, the old enum's values), which
-    /// io/checkpoint.cpp's case_fingerprint still prints.
-    explicit operator int() const { return static_cast<int>(index()); }
-  };
-  Shape shape;  ///< in the body's frame, relative to center
+  ToolShapes shape;  ///< in the body's frame, relative to center
   std::string name;
   int material = 0;
   Eigen::Vector3d center = Eigen::Vector3d::Zero();  ///< reference point the motion carries
   std::vector<MotionKey> motion;  ///< sorted by time; before the first key the body rests
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();  ///< current translational velocity
-
-  // Transitional (issue 13): the flat parameters of the old Body, read only by
-  // io/checkpoint.cpp's case_fingerprint, which lists body fields by hand. Filled from the shape
-  // by mirror_shape_parameters(); nothing else reads them. Remove them when the fingerprint
-  // becomes a canonical dump that visits each shape's parameters().
-  Eigen::Vector3d half_size = Eigen::Vector3d::Zero();
-  Eigen::Vector3d axis = Eigen::Vector3d::UnitY();
-  double radius = 0.0;
-  double spin = 0.0;
 };
-
-/// Copies the shape's parameters into the transitional flat fields of @p body, by name.
-inline void mirror_shape_parameters(Body& body) {
-  body.half_size = Eigen::Vector3d::Zero();
-  body.axis = Eigen::Vector3d::UnitY();
-  body.radius = 0.0;
-  body.spin = 0.0;
-  const auto copy = [&](const char* name, const auto& value) {
-    using Value = std::decay_t<decltype(value)>;
-    if constexpr (std::is_same_v<Value, Eigen::Vector3d>) {
-      if (std::string(name) == "half_size") body.half_size = value;
-      if (std::string(name) == "axis") body.axis = value;
-    } else {
-      if (std::string(name) == "radius") body.radius = value;
-      if (std::string(name) == "spin") body.spin = value;
-    }
-  };
-  std::visit([&](const auto& shape) { shape.parameters(copy); }, body.shape);
-}
 
 /// Prescribed velocity of @p body at @p time: that of the last key not after it.
 inline Eigen::Vector3d velocity_at(const Body& body, double time) {

@@ -398,7 +398,7 @@ Domain read_domain(const Reader& reader, const YAML::Node& node, const std::stri
 
 /// A tool's shape and the point its motion carries, as one reader entry reads them.
 struct PlacedShape {
-  Body::Shape shape;
+  ToolShapes shape;
   Eigen::Vector3d center;
 };
 
@@ -470,7 +470,6 @@ Body read_tool(const Reader& reader, const Case& c, const YAML::Node& node, cons
   PlacedShape placed = kind.read(reader, node, path);
   tool.shape = std::move(placed.shape);
   tool.center = placed.center;
-  mirror_shape_parameters(tool);
   tool.material = material_index(reader, c, node, path);
   tool.name = node["name"] ? reader.text(node["name"], path + ".name") : path;
   if (const YAML::Node motion = node["motion"]) {

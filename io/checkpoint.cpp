@@ -196,13 +196,16 @@ void write_canonical(const Case& c, CanonicalText& t) {
     const Body& b = c.bodies[k];
     const std::string key = "case.bodies." + std::to_string(k);
     t.add(key + ".name", std::string_view(b.name));
-    t.add(key + ".shape", static_cast<int>(b.shape));
+    // The shape by its place in ToolShapes and every parameter it declares.
+    t.add(key + ".shape", static_cast<int>(b.shape.index()));
+    std::visit(
+        [&](const auto& shape) {
+          shape.parameters(
+              [&](const char* name, const auto& value) { t.add(key + ".shape." + name, value); });
+        },
+        b.shape);
     t.add(key + ".material", b.material);
     t.add(key + ".center", b.center);
-    t.add(key + ".half_size", b.half_size);
-    t.add(key + ".axis", b.axis);
-    t.add(key + ".radius", b.radius);
-    t.add(key + ".spin", b.spin);
     t.add(key + ".velocity", b.velocity);
     for (std::size_t m = 0; m < b.motion.size(); ++m) {
       t.add(key + ".motion." + std::to_string(m) + ".time", b.motion[m].time);

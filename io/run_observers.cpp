@@ -110,15 +110,9 @@ void VtkFrames::write(const Scene& scene, const Stepper& stepper) {
     bond_count_[i] += bonded ? 1.0 : 0.0;
     bond_count_[j] += bonded ? 1.0 : 0.0;
   });
-  std::vector<VtkSeriesWriter::ScalarField> scalars{{"coordination", &coordination_},
-                                                    {"bond_count", &bond_count_}};
-  if (p.thermal()) {
-    scalars.push_back({"temperature", &p.temperature});
-    scalars.push_back({"peak_temperature", &p.peak_temperature});
-    scalars.push_back({"heat_rate", &p.heat_rate});
-  }
-  writer_.write_frame(stepper.time(), p, contacts_, scene.walls, scene.domain, scalars,
-                      {{"angular_velocity", &p.wx, &p.wy, &p.wz}, {"torque", &p.tx, &p.ty, &p.tz}},
+  // The particles' own fields come from their table; only the per-frame derived arrays are passed.
+  writer_.write_frame(stepper.time(), p, contacts_, scene.walls, scene.domain,
+                      {{"coordination", &coordination_}, {"bond_count", &bond_count_}}, {},
                       scene.bodies);
 }
 

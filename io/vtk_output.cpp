@@ -216,25 +216,6 @@ const std::vector<double>& doubles(const Particles& p, const ParticleField& fiel
   return p.*std::get<std::vector<double> Particles::*>(field.member);
 }
 
-/// Whether the caller's @p values is the array of @p p that table row @p field names.
-bool is_row(const Particles& p, const ParticleField* field, const std::vector<double>* values) {
-  const auto* member = std::get_if<std::vector<double> Particles::*>(&field->member);
-  return member != nullptr && &(p.**member) == values;
-}
-
-/// Whether the caller's extra scalar @p field is table array @p array of @p p itself.
-bool is_table_array(const Particles& p, const TableArray& array,
-                    const VtkSeriesWriter::ScalarField& field) {
-  return !array.vector && is_row(p, array.rows[0], field.values);
-}
-
-/// Whether the caller's extra vector @p field is table array @p array of @p p itself.
-bool is_table_array(const Particles& p, const TableArray& array,
-                    const VtkSeriesWriter::VectorField& field) {
-  return array.vector && is_row(p, array.rows[0], field.x) && is_row(p, array.rows[1], field.y) &&
-         is_row(p, array.rows[2], field.z);
-}
-
 /// The VTK array of table array @p array: Int64, Int32 or Float64 as the member's type.
 vtkSmartPointer<vtkDataArray> make_table_array(const Particles& p, const TableArray& array) {
   const std::string name(array.name);
@@ -276,7 +257,6 @@ vtkSmartPointer<vtkPolyData> particle_data(
   data->SetVerts(verts);
   vtkPointData* arrays = data->GetPointData();
   // The table's arrays by their order, the caller's derived scalars and vectors at their places.
-  // A caller's array that is a table array itself is written once, at the table's place.
   const std::vector<TableArray> table = table_arrays(p);
   auto next = table.begin();
   const auto add_table_until = [&](int order) {
@@ -284,19 +264,13 @@ vtkSmartPointer<vtkPolyData> particle_data(
       arrays->AddArray(make_table_array(p, *next));
     }
   };
-  const auto in_table = [&](const auto& field) {
-    return std::any_of(table.begin(), table.end(),
-                       [&](const TableArray& array) { return is_table_array(p, array, field); });
-  };
   add_table_until(kVtkDerivedScalarsOrder);
   for (const VtkSeriesWriter::ScalarField& field : scalars) {
-    if (!in_table(field)) arrays->AddArray(scalar_array(field.name, *field.values));
+    arrays->AddArray(scalar_array(field.name, *field.values));
   }
   add_table_until(kVtkDerivedVectorsOrder);
   for (const VtkSeriesWriter::VectorField& field : vectors) {
-    if (!in_table(field)) {
-      arrays->AddArray(vector_array(field.name, *field.x, *field.y, *field.z));
-    }
+    arrays->AddArray(vector_array(field.name, *field.x, *field.y, *field.z));
   }
   add_table_until(std::numeric_limits<int>::max());
   return data;
@@ -455,16 +429,12 @@ void check_inputs(const Particles& p, const std::vector<PlaneWall>& walls,
     }
   }
   if (!sizes_agree) throw std::invalid_argument("VTK output: particle arrays differ in size");
-  // Duplicate names would make ParaView show only one of the arrays. A table array passed again
-  // as itself is allowed: it is written once, at its place in the table.
+  // Duplicate names would make ParaView show only one of the arrays.
   std::set<std::string> names;
   for (const TableArray& array : table) names.emplace(array.name);
-  const auto check_name = [&](const std::string& name, const auto& field) {
+  const auto check_name = [&](const std::string& name) {
     if (name.empty()) throw std::invalid_argument("VTK output: extra field with an empty name");
-    const bool itself = std::any_of(table.begin(), table.end(), [&](const TableArray& array) {
-      return array.name == name && is_table_array(p, array, field);
-    });
-    if (!itself && !names.insert(name).second) {
+    if (!names.insert(name).second) {
       throw std::invalid_argument("VTK output: field \"" + name + "\" is given twice");
     }
   };
@@ -475,11 +445,11 @@ void check_inputs(const Particles& p, const std::vector<PlaneWall>& walls,
     }
   };
   for (const VtkSeriesWriter::ScalarField& field : scalars) {
-    check_name(field.name, field);
+    check_name(field.name);
     check_values(field.name, field.values);
   }
   for (const VtkSeriesWriter::VectorField& field : vectors) {
-    check_name(field.name, field);
+    check_name(field.name);
     check_values(field.name, field.x);
     check_values(field.name, field.y);
     check_values(field.name, field.z);

@@ -166,7 +166,10 @@ TEST(CaseFingerprint, CaseBuiltInCodeIsCovered) {
   EXPECT_TRUE(changed([](Case& c) { c.particles[1].position.z() += 1e-9; }));
   EXPECT_TRUE(changed([](Case& c) { c.particles[0].temperature = 300.0; }));
   EXPECT_TRUE(changed([](Case& c) { c.bodies[0].motion[0].velocity.x() = 0.06; }));
-  EXPECT_TRUE(changed([](Case& c) { c.bodies[0].axis = Eigen::Vector3d::UnitX(); }));
+  EXPECT_TRUE(changed(
+      [](Case& c) { std::get<CylinderShape>(c.bodies[0].shape).axis = Eigen::Vector3d::UnitX(); }));
+  EXPECT_TRUE(changed([](Case& c) { std::get<CylinderShape>(c.bodies[0].shape).spin = 1.0; }));
+  EXPECT_TRUE(changed([](Case& c) { c.bodies[0].shape = SphereShape{1e-3}; }));
   EXPECT_TRUE(changed([](Case& c) { c.materials[1].poisson_ratio = 0.31; }));
   EXPECT_TRUE(changed([](Case& c) { c.walls[0].temperature = 300.0; }));
   EXPECT_TRUE(changed([](Case& c) { c.bond.criterion = BondCriterion::kAlways; }));
