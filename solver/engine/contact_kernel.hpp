@@ -77,6 +77,10 @@ struct PairHistory {
   }
 };
 
+// The named steps below are forced inline: they run once per pair or particle, and a call each
+// (GCC otherwise keeps evaluate_pair, pair_friction and release_pair out of line) costs up to a
+// third of the pair pass.
+
 /// What pass 1 knows of a candidate pair before any law runs.
 struct PairGeometry {
   double overlap;         ///< r_i + r_j - distance [m]
@@ -90,8 +94,8 @@ template <std::uint32_t kBlock>
 struct PairGeometryBlock {
   double overlap[kBlock], nx[kBlock], ny[kBlock], nz[kBlock], r_star[kBlock], m_star[kBlock];
 
-  void measure(std::uint32_t s, const Particles& p, const NeighborList& list, std::size_t i,
-               std::size_t j, std::uint32_t k) {
+  [[gnu::always_inline]] void measure(std::uint32_t s, const Particles& p, const NeighborList& list,
+                                      std::size_t i, std::size_t j, std::uint32_t k) {
     const Eigen::Vector3d d = list.separation(p, i, j, k);
     const double distance = std::sqrt(d.x() * d.x() + d.y() * d.y() + d.z() * d.z());
     const double inv_distance = 1.0 / distance;
@@ -102,7 +106,7 @@ struct PairGeometryBlock {
     r_star[s] = effective_radius(p.radius[i], p.radius[j]);
     m_star[s] = effective_mass(p.mass[i], p.mass[j]);
   }
-  PairGeometry at(std::uint32_t s) const {
+  [[gnu::always_inline]] PairGeometry at(std::uint32_t s) const {
     return {overlap[s], nx[s], ny[s], nz[s], r_star[s], m_star[s]};
   }
 };
@@ -110,8 +114,8 @@ struct PairGeometryBlock {
 /// A candidate pair out of contact: no force, torque or heat, no bond, its spring released.
 /// Returns 1 when it was bonded (a bond lost), else 0.
 template <bool kFriction>
-std::size_t release_pair(std::uint32_t k, bool thermal, bool rolling, PairForces& out,
-                         PairHistory& history) {
+[[gnu::always_inline]] inline std::size_t release_pair(std::uint32_t k, bool thermal, bool rolling,
+                                                       PairForces& out, PairHistory& history) {
   out.fx[k] = out.fy[k] = out.fz[k] = 0.0;
   const std::size_t lost = out.bonded[k];
   out.bonded[k] = 0;
@@ -127,9 +131,11 @@ std::size_t release_pair(std::uint32_t k, bool thermal, bool rolling, PairForces
 /// Friction and rolling resistance of contact k = (i, j) pressed by @p load: adds the tangential
 /// force to slot k, stores its torque per lever, the overlap and the rolling torque, and updates
 /// the spring in @p history.
-inline void pair_friction(const Particles& p, const Scene& scene, const PairCoefficients& c,
-                          double load, const PairGeometry& g, std::size_t i, std::size_t j,
-                          std::uint32_t k, bool rolling, PairForces& out, PairHistory& history) {
+[[gnu::always_inline]] inline void pair_friction(const Particles& p, const Scene& scene,
+                                                 const PairCoefficients& c, double load,
+                                                 const PairGeometry& g, std::size_t i,
+                                                 std::size_t j, std::uint32_t k, bool rolling,
+                                                 PairForces& out, PairHistory& history) {
   const Eigen::Vector3d normal(g.nx, g.ny, g.nz);
   const Eigen::Vector3d lever_i = pair_lever(p.radius[i], g.overlap) * normal;
   const Eigen::Vector3d lever_j = -pair_lever(p.radius[j], g.overlap) * normal;
@@ -170,10 +176,12 @@ inline void pair_friction(const Particles& p, const Scene& scene, const PairCoef
 /// Contact k = (i, j) of pass 1 (overlap > 0): the normal law, the contact's heat flow in thermal
 /// runs and, with kFriction, friction and rolling; results stored in slot k.
 template <bool kFriction, class Law>
-NormalForce evaluate_pair(const Particles& p, const Scene& scene, const Law& law,
-                          const PairGeometry& g, bool criterion_met, std::size_t i, std::size_t j,
-                          std::uint32_t k, bool thermal, bool rolling, PairForces& out,
-                          PairHistory& history) {
+[[gnu::always_inline]] inline NormalForce evaluate_pair(const Particles& p, const Scene& scene,
+                                                        const Law& law, const PairGeometry& g,
+                                                        bool criterion_met, std::size_t i,
+                                                        std::size_t j, std::uint32_t k,
+                                                        bool thermal, bool rolling, PairForces& out,
+                                                        PairHistory& history) {
   const double overlap_rate =
       approach_rate(p.vx[j] - p.vx[i], p.vy[j] - p.vy[i], p.vz[j] - p.vz[i], g.nx, g.ny, g.nz);
   const PairCoefficients& coefficients = scene.pair(p.material[i], p.material[j]);
@@ -224,10 +232,10 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
     PairGeometryBlock<kBlock> geometry;
     list.for_each_pair_block<kBlock>(
         chunk * kChunk, std::min(n, (chunk + 1) * kChunk),
-        [&](std::uint32_t s, std::size_t i, std::size_t j, std::uint32_t k) {
-          geometry.measure(s, p, list, i, j, k);
-        },
-        [&](std::uint32_t s, std::size_t i, std::size_t j, std::uint32_t k) {
+        [&](std::uint32_t s, std::size_t i, std::size_t j, std::uint32_t k)
+            __attribute__((always_inline)) { geometry.measure(s, p, list, i, j, k); },
+        [&](std::uint32_t s, std::size_t i, std::size_t j,
+            std::uint32_t k) __attribute__((always_inline)) {
           const PairGeometry g = geometry.at(s);
           if (!(g.overlap > 0.0)) {
             broken += release_pair<kFriction>(k, thermal, rolling, out, history);
@@ -360,11 +368,12 @@ struct ParticleLoad {
 /// Adds particle i's pairs to @p load: its own row as stored, then the pairs in which it is the
 /// second member with force, heat and rolling torque reversed (the lever torque keeps its sign).
 template <bool kFriction>
-void gather_pairs(const Particles& p, const NeighborList& list, const PairForces& pf, std::size_t i,
-                  bool thermal, bool rolling, ParticleLoad& load) {
+[[gnu::always_inline]] inline void gather_pairs(const Particles& p, const NeighborList& list,
+                                                const PairForces& pf, std::size_t i, bool thermal,
+                                                bool rolling, ParticleLoad& load) {
   list.for_each_pair_of(
       i,
-      [&](std::uint32_t k) {
+      [&](std::uint32_t k) __attribute__((always_inline)) {
         load.force += Eigen::Vector3d(pf.fx[k], pf.fy[k], pf.fz[k]);
         if constexpr (kFriction) {
           load.torque += lever_torque(pair_lever(p.radius[i], pf.overlap[k]),
@@ -376,7 +385,7 @@ void gather_pairs(const Particles& p, const NeighborList& list, const PairForces
           load.conductance += pf.conductance[k];
         }
       },
-      [&](std::uint32_t k) {
+      [&](std::uint32_t k) __attribute__((always_inline)) {
         load.force -= Eigen::Vector3d(pf.fx[k], pf.fy[k], pf.fz[k]);
         if constexpr (kFriction) {
           load.torque += lever_torque(pair_lever(p.radius[i], pf.overlap[k]),
@@ -400,8 +409,10 @@ struct BoundaryTally {
 /// Adds every wall's and tool's contact with particle i to @p load and to the block's wall loads
 /// @p block_load (3 values per boundary); walls held at a temperature also conduct heat.
 template <bool kFriction, class Law>
-void gather_boundaries(Particles& p, const Scene& scene, const Law& law, std::size_t i,
-                       bool thermal, double* block_load, ParticleLoad& load, BoundaryTally& tally) {
+[[gnu::always_inline]] inline void gather_boundaries(Particles& p, const Scene& scene,
+                                                     const Law& law, std::size_t i, bool thermal,
+                                                     double* block_load, ParticleLoad& load,
+                                                     BoundaryTally& tally) {
   const std::size_t boundaries = scene.walls.size() + scene.bodies.size();
   for (std::size_t w = 0; w < boundaries; ++w) {
     Eigen::Vector3d wall_f, wall_tau;
@@ -426,8 +437,9 @@ void gather_boundaries(Particles& p, const Scene& scene, const Law& law, std::si
 }
 
 /// Adds particle i's convection and radiation to the surroundings to @p load (thermal runs).
-inline void exchange_with_surroundings(const Particles& p, const Scene& scene, std::size_t i,
-                                       ParticleLoad& load) {
+[[gnu::always_inline]] inline void exchange_with_surroundings(const Particles& p,
+                                                              const Scene& scene, std::size_t i,
+                                                              ParticleLoad& load) {
   const SurroundingsExchange exchange = surroundings_exchange(
       scene.convection_coefficient, scene.emissivity[static_cast<std::size_t>(p.material[i])],
       sphere_surface_area(p.radius[i]), scene.ambient_temperature, p.temperature[i]);

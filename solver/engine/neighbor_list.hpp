@@ -71,8 +71,8 @@ class NeighborList {
   /// instead of one long body let the independent latencies of the first (square roots,
   /// divisions) overlap in the pipeline. Serial: the caller splits rows among threads.
   template <std::uint32_t kBlock, class Prepare, class Evaluate>
-  void for_each_pair_block(std::size_t first_row, std::size_t last_row, Prepare&& prepare,
-                           Evaluate&& evaluate) const {
+  [[gnu::always_inline]] void for_each_pair_block(std::size_t first_row, std::size_t last_row,
+                                                  Prepare&& prepare, Evaluate&& evaluate) const {
     std::uint32_t first_of[kBlock];
     std::size_t row = first_row;
     const std::uint32_t pairs_end = row_begin_[last_row];
@@ -93,7 +93,8 @@ class NeighborList {
   /// then @p as_second(k) for each in which it is the second, each in list order. Serial; one
   /// fixed order per particle, so sums over it are the same bytes for any thread count.
   template <class AsFirst, class AsSecond>
-  void for_each_pair_of(std::size_t i, AsFirst&& as_first, AsSecond&& as_second) const {
+  [[gnu::always_inline]] void for_each_pair_of(std::size_t i, AsFirst&& as_first,
+                                               AsSecond&& as_second) const {
     for (std::uint32_t k = row_begin_[i]; k < row_begin_[i + 1]; ++k) as_first(k);
     for (std::uint32_t c = column_begin_[i]; c < column_begin_[i + 1]; ++c) {
       as_second(column_pair_[c]);

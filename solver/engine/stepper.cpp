@@ -94,11 +94,7 @@ ContactSummary Stepper::evaluate_forces(const Law& law) {
 }
 
 void Stepper::compute_forces(double laser_time) {
-  pair_forces_.resize(list_.pair_count(), scene_.friction, scene_.rolling(),
-                      scene_.particles.thermal());
-  if (scene_.friction && history_.sx.size() != list_.pair_count()) {
-    history_.resize(list_.pair_count());
-  }
+  // Pair slots are sized for the current list by apply_slips, which follows every build.
   contacts_ = with_normal_law(scene_.normal_law, [&](const auto& law) {
     return scene_.friction ? evaluate_forces<true>(law) : evaluate_forces<false>(law);
   });
