@@ -64,8 +64,8 @@ Scene packing(int kind, std::size_t target, bool friction, bool bonded) {
   return build_scene(c);
 }
 
-template <bool kFriction, class Adhesion>
-void pair_pass(benchmark::State& state, Adhesion adhesion, bool bonded) {
+template <bool kFriction, class Law>
+void pair_pass(benchmark::State& state, const Law& law, bool bonded) {
   Scene scene = packing(static_cast<int>(state.range(0)), static_cast<std::size_t>(state.range(1)),
                         kFriction, bonded);
   Stepper stepper(scene);  // builds the list and checks the packing evaluates
@@ -77,7 +77,7 @@ void pair_pass(benchmark::State& state, Adhesion adhesion, bool bonded) {
   ContactSummary summary;
   for (auto _ : state) {
     summary = compute_pair_forces<kFriction>(
-        scene.particles, scene, list, adhesion,
+        scene.particles, scene, list, law,
         [bonded](std::size_t, std::size_t, std::size_t) { return bonded; }, forces, history);
     benchmark::DoNotOptimize(forces.fx.data());
   }
@@ -92,19 +92,19 @@ void pair_pass(benchmark::State& state, Adhesion adhesion, bool bonded) {
 }
 
 void BM_Pairs_Hertz_Alpha1(benchmark::State& s) {
-  pair_pass<false>(s, LinearAdhesion{}, false);
+  pair_pass<false>(s, BondNormalLaw<LinearAdhesion>{}, false);
 }
 void BM_Pairs_Bonded_Alpha1(benchmark::State& s) {
-  pair_pass<false>(s, LinearAdhesion{}, true);
+  pair_pass<false>(s, BondNormalLaw<LinearAdhesion>{}, true);
 }
 void BM_Pairs_Bonded_Alpha05(benchmark::State& s) {
-  pair_pass<false>(s, GeneralAdhesion{0.5}, true);
+  pair_pass<false>(s, BondNormalLaw<GeneralAdhesion>{{0.5}}, true);
 }
 void BM_Pairs_Friction_Alpha1(benchmark::State& s) {
-  pair_pass<true>(s, LinearAdhesion{}, false);
+  pair_pass<true>(s, BondNormalLaw<LinearAdhesion>{}, false);
 }
 void BM_Pairs_Friction_Bonded_Alpha1(benchmark::State& s) {
-  pair_pass<true>(s, LinearAdhesion{}, true);
+  pair_pass<true>(s, BondNormalLaw<LinearAdhesion>{}, true);
 }
 
 /// {lattice: 0 SC, 1 BCC, 2 FCC} x {about 8 000, 64 000 particles}.

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include "solver/models/bond_law.hpp"
+#include "solver/models/contact_point.hpp"
+#include "solver/models/normal_laws.hpp"
 #include "solver/models/pair.hpp"
 
 namespace bondem {
@@ -125,6 +127,68 @@ TEST(BondLawCriterion, CriterionKinds) {
   EXPECT_FALSE(criterion_holds(BondCriterion::kNever, true));
   EXPECT_TRUE(criterion_holds(BondCriterion::kPairFlag, true));
   EXPECT_FALSE(criterion_holds(BondCriterion::kPairFlag, false));
+}
+
+// A bond limits friction by its Hertz part, not by the net force (zero at delta_eq); a contact by
+// its repulsion, and never by an attraction.
+TEST(BondLaw, FrictionLoadOfABondIsItsHertzPart) {
+  const BondPair p = paper_pair(0.3, 0.5);
+  const double overlap = p.equilibrium_overlap;
+  const NormalForce bonded = normal_force(p, LinearAdhesion{}, overlap, 0.0, true);
+  ASSERT_TRUE(bonded.bonded);
+  EXPECT_NEAR(bonded.force, 0.0, 1e-9 * p.hertz_stiffness * std::pow(overlap, 1.5));
+  EXPECT_DOUBLE_EQ(friction_load(p, bonded, overlap), p.hertz_stiffness * std::pow(overlap, 1.5));
+  EXPECT_EQ(friction_load(p, NormalForce{-2.0, false}, overlap), 2.0);
+  EXPECT_EQ(friction_load(p, NormalForce{0.5, false}, overlap), 0.0);
+}
+
+TEST(BondLaw, TemperatureCriterionKeepsASolidifiedBond) {
+  EXPECT_TRUE(temperature_criterion(false, 1200.0, 1300.0, 1200.0));
+  EXPECT_FALSE(temperature_criterion(false, 1199.0, 1300.0, 1200.0));
+  EXPECT_TRUE(temperature_criterion(true, 300.0, 300.0, 1200.0));
+}
+
+// The law object the kernels call is the bond law itself, and its time scales are the calculator's
+// Hertz impact.
+TEST(BondLaw, RegisteredLawObjectIsTheBondLaw) {
+  PairCoefficients c =
+      make_pair_coefficients(1e9, 0.3, 0.5, 0.5, AdhesionInput::kEquilibriumOverlap, 2e-6);
+  const NormalLawSpec spec = BondLawSpec{0.5};
+  const NormalForce f = with_normal_law(spec, [&](const auto& law) {
+    return law.force(law.pair(c, kRStar, kMStar), 3e-6, 0.01, true);
+  });
+  const NormalForce expected =
+      normal_force(make_bond_pair(c, kRStar, kMStar), GeneralAdhesion{0.5}, 3e-6, 0.01, true);
+  EXPECT_EQ(f.force, expected.force);
+  EXPECT_EQ(f.bonded, expected.bonded);
+  const NormalTimeScales t = with_normal_law(
+      spec, [&](const auto& law) { return law.time_scales(c, kRStar, kMStar, 1.0, false); });
+  EXPECT_EQ(t.contact_time, hertz_contact_time(1e9, kRStar, kMStar, 1.0));
+  EXPECT_TRUE(std::isinf(t.oscillation_period));
+}
+
+// Two spheres rolling on each other without slip: the contact points move together.
+TEST(ContactPoint, RollingWithoutSlipHasNoContactVelocity) {
+  const double r_i = 1e-3, r_j = 2e-3, overlap = 1e-5;
+  const Eigen::Vector3d n(1.0, 0.0, 0.0);
+  const Eigen::Vector3d lever_i = pair_lever(r_i, overlap) * n;
+  const Eigen::Vector3d lever_j = -pair_lever(r_j, overlap) * n;
+  EXPECT_DOUBLE_EQ((lever_j - lever_i).norm() + overlap, r_i + r_j);  // centre distance
+  // i spins about z at w; j counter-spins so that its surface speed at the contact matches.
+  const Eigen::Vector3d w_i(0.0, 0.0, 3.0);
+  const Eigen::Vector3d w_j = -w_i * lever_i.norm() / lever_j.norm();
+  const Eigen::Vector3d v = contact_velocity(Eigen::Vector3d::Zero(), w_i, lever_i,
+                                             Eigen::Vector3d::Zero(), w_j, lever_j);
+  EXPECT_LT(v.norm(), 1e-15);
+  // The same spin on both slides at the contact: 3 (L_i + L_j) along y.
+  const Eigen::Vector3d slide = contact_velocity(Eigen::Vector3d::Zero(), w_i, lever_i,
+                                                 Eigen::Vector3d::Zero(), w_i, lever_j);
+  EXPECT_NEAR(slide.y(), -3.0 * (lever_i.norm() + lever_j.norm()), 1e-15);
+  // Each member's torque is its own lever length times n x F_t.
+  const Eigen::Vector3d f_t(0.0, 2.0, 0.0);
+  EXPECT_EQ(lever_torque(pair_lever(r_i, overlap), torque_per_lever(n, f_t)), moment(lever_i, f_t));
+  EXPECT_EQ(lever_torque(pair_lever(r_j, overlap), torque_per_lever(n, f_t)),
+            moment(lever_j, Eigen::Vector3d(-f_t)));
 }
 
 }  // namespace

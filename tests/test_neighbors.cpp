@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <algorithm>
+#include <array>
 #include <set>
 
 #include "all_pairs.hpp"
@@ -101,6 +103,78 @@ TEST(NeighborList, ReorderingKeepsIdsAndState) {
     EXPECT_EQ(after.radius[k], before.radius[id]);
   }
   for (int count : seen) EXPECT_EQ(count, 1);
+}
+
+// The kernels' walks must see the same pairs as for_each_pair: pass 1 in list order with every
+// pair of a block prepared before any is evaluated, pass 2 every pair of a particle exactly once,
+// its own row first, each part in list order.
+TEST(NeighborList, BlockAndPerParticleWalksMatchThePairWalk) {
+  Case c = testing::soft_case(0.0);
+  testing::add_random_gas(c, 1500, 0.1e-3, 0.5e-3, 0.012, 1.0, 11);
+  c.domain->periodic = {true, false, true};
+  Scene scene = build_scene(c);
+  NeighborList list;
+  list.build(scene.particles, scene.domain, 2e-4, true);
+  std::vector<std::array<std::size_t, 3>> pairs;
+  list.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
+    pairs.push_back({i, j, k});
+  });
+  ASSERT_EQ(pairs.size(), list.pair_count());
+  ASSERT_GT(pairs.size(), 1000u);
+  ASSERT_EQ(list.row_count(), scene.particles.size());
+
+  // Rows split as the kernel splits them (odd sizes, so blocks straddle rows and row ranges).
+  constexpr std::uint32_t kBlock = 7;
+  std::vector<std::array<std::size_t, 3>> prepared, evaluated;
+  std::size_t block_start = 0;
+  for (std::size_t first = 0; first < list.row_count(); first += 13) {
+    const std::size_t last = std::min(list.row_count(), first + 13);
+    list.for_each_pair_block<kBlock>(
+        first, last,
+        [&](std::uint32_t s, std::size_t i, std::size_t j, std::uint32_t k) {
+          EXPECT_EQ(s, prepared.size() - evaluated.size());  // a block's pairs, all prepared first
+          EXPECT_LT(s, kBlock);
+          EXPECT_GE(i, first);
+          EXPECT_LT(i, last);
+          prepared.push_back({i, j, k});
+        },
+        [&](std::uint32_t s, std::size_t i, std::size_t j, std::uint32_t k) {
+          if (s == 0) block_start = evaluated.size();
+          EXPECT_EQ(evaluated.size(), block_start + s);
+          EXPECT_EQ(prepared[block_start + s], (std::array<std::size_t, 3>{i, j, k}));
+          evaluated.push_back({i, j, k});
+        });
+    ASSERT_EQ(prepared.size(), evaluated.size());
+  }
+  EXPECT_EQ(prepared, pairs);
+  EXPECT_EQ(evaluated, pairs);
+
+  std::vector<int> seen(pairs.size(), 0);
+  for (std::size_t m = 0; m < list.row_count(); ++m) {
+    std::vector<std::uint32_t> own, other;
+    bool other_begun = false;
+    list.for_each_pair_of(
+        m,
+        [&](std::uint32_t k) {
+          EXPECT_FALSE(other_begun);  // the own row comes first
+          own.push_back(k);
+        },
+        [&](std::uint32_t k) {
+          other_begun = true;
+          other.push_back(k);
+        });
+    for (const std::uint32_t k : own) {
+      EXPECT_EQ(pairs[k][0], m);
+      ++seen[k];
+    }
+    for (const std::uint32_t k : other) {
+      EXPECT_EQ(pairs[k][1], m);
+      ++seen[k];
+    }
+    EXPECT_TRUE(std::is_sorted(own.begin(), own.end()));
+    EXPECT_TRUE(std::is_sorted(other.begin(), other.end()));
+  }
+  for (const int count : seen) EXPECT_EQ(count, 2);  // once from each member
 }
 
 TEST(NeighborList, ShortPeriodicAxisOfAWideDomainKeepsThreeCells) {

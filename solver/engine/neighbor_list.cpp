@@ -118,7 +118,7 @@ void NeighborList::wrap_and_set_shifts(Particles& p, const Domain& domain) {
   for (int sz = -1; sz <= 1; ++sz) {
     for (int sy = -1; sy <= 1; ++sy) {
       for (int sx = -1; sx <= 1; ++sx) {
-        shifts[image_code(sx, sy, sz)] =
+        shifts_[image_code(sx, sy, sz)] =
             Eigen::Vector3d(sx * length.x(), sy * length.y(), sz * length.z());
       }
     }
@@ -213,29 +213,29 @@ void NeighborList::find_rows(const Particles& p, const Domain& domain, double sk
       row_count[i] = static_cast<std::uint32_t>(my_second.size() - before);
     }
   }
-  row_begin.assign(n + 1, 0);
-  for (std::size_t i = 0; i < n; ++i) row_begin[i + 1] = row_begin[i] + row_count[i];
-  second.resize(row_begin[n]);
-  image.resize(row_begin[n]);
+  row_begin_.assign(n + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) row_begin_[i + 1] = row_begin_[i] + row_count[i];
+  second_.resize(row_begin_[n]);
+  image_.resize(row_begin_[n]);
   for (std::size_t t = 0; t < local_second.size(); ++t) {
     if (local_first[t] == n) continue;
     std::copy(local_second[t].begin(), local_second[t].end(),
-              second.begin() + row_begin[local_first[t]]);
+              second_.begin() + row_begin_[local_first[t]]);
     std::copy(local_image[t].begin(), local_image[t].end(),
-              image.begin() + row_begin[local_first[t]]);
+              image_.begin() + row_begin_[local_first[t]]);
   }
 }
 
 void NeighborList::index_columns() {
-  const std::size_t n = row_begin.size() - 1;
+  const std::size_t n = row_begin_.size() - 1;
   // Transposed index, count -> scan -> fill in pair order.
-  column_begin.assign(n + 1, 0);
-  for (const std::uint32_t j : second) ++column_begin[j + 1];
-  for (std::size_t i = 0; i < n; ++i) column_begin[i + 1] += column_begin[i];
-  column_pair.resize(second.size());
-  cursor_.assign(column_begin.begin(), column_begin.end() - 1);
-  for (std::size_t k = 0; k < second.size(); ++k) {
-    column_pair[cursor_[second[k]]++] = static_cast<std::uint32_t>(k);
+  column_begin_.assign(n + 1, 0);
+  for (const std::uint32_t j : second_) ++column_begin_[j + 1];
+  for (std::size_t i = 0; i < n; ++i) column_begin_[i + 1] += column_begin_[i];
+  column_pair_.resize(second_.size());
+  cursor_.assign(column_begin_.begin(), column_begin_.end() - 1);
+  for (std::size_t k = 0; k < second_.size(); ++k) {
+    column_pair_[cursor_[second_[k]]++] = static_cast<std::uint32_t>(k);
   }
 }
 
@@ -270,12 +270,12 @@ void NeighborList::build(Particles& p, const Domain& domain, double skin, bool r
   x0_ = p.x;
   y0_ = p.y;
   z0_ = p.z;
-  ++builds;
+  ++builds_;
   release_scratch();
 }
 
 void NeighborList::save(NeighborListState& state) const {
-  state.builds = builds;
+  state.builds = builds_;
   state.x0 = x0_;
   state.y0 = y0_;
   state.z0 = z0_;
@@ -296,7 +296,7 @@ void NeighborList::restore(Particles& p, const Domain& domain, double skin,
   p.x.swap(x);
   p.y.swap(y);
   p.z.swap(z);
-  builds = state.builds;
+  builds_ = state.builds;
 }
 
 double NeighborList::max_displacement_sq(const Particles& p) const {

@@ -3,6 +3,7 @@
 /// Verlet neighbor list on a uniform cell grid (spatial hashing), built count -> scan -> fill.
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <type_traits>
@@ -40,16 +41,19 @@ class NeighborList {
   double max_displacement_sq(const Particles& p) const;
 
   /// Number of candidate pairs.
-  std::size_t pair_count() const { return second.size(); }
+  std::size_t pair_count() const { return second_.size(); }
+
+  /// Number of rows: the particle count at the last build.
+  std::size_t row_count() const { return row_begin_.empty() ? 0 : row_begin_.size() - 1; }
 
   /// Calls @p visit(i, j, k) for every pair in list order (rows by i, then k), serially; k
   /// indexes the per-pair arrays. A visitor that returns bool stops the walk by returning false.
   template <class Visit>
   void for_each_pair(Visit&& visit) const {
-    const std::size_t rows = row_begin.empty() ? 0 : row_begin.size() - 1;
+    const std::size_t rows = row_count();
     for (std::size_t i = 0; i < rows; ++i) {
-      for (std::uint32_t k = row_begin[i]; k < row_begin[i + 1]; ++k) {
-        const std::size_t j = second[k];
+      for (std::uint32_t k = row_begin_[i]; k < row_begin_[i + 1]; ++k) {
+        const std::size_t j = second_[k];
         if constexpr (std::is_same_v<
                           std::invoke_result_t<Visit&, std::size_t, std::size_t, std::uint32_t>,
                           bool>) {
@@ -61,27 +65,54 @@ class NeighborList {
     }
   }
 
+  /// The pairs of rows [@p first_row, @p last_row) in list order, in blocks of up to kBlock
+  /// consecutive pairs: @p prepare(s, i, j, k) for every pair of a block, then @p evaluate(s, i,
+  /// j, k) for every pair of the same block; s is the pair's place in its block. Two short loops
+  /// instead of one long body let the independent latencies of the first (square roots,
+  /// divisions) overlap in the pipeline. Serial: the caller splits rows among threads.
+  template <std::uint32_t kBlock, class Prepare, class Evaluate>
+  [[gnu::always_inline]] void for_each_pair_block(std::size_t first_row, std::size_t last_row,
+                                                  Prepare&& prepare, Evaluate&& evaluate) const {
+    std::uint32_t first_of[kBlock];
+    std::size_t row = first_row;
+    const std::uint32_t pairs_end = row_begin_[last_row];
+    for (std::uint32_t block = row_begin_[first_row]; block < pairs_end; block += kBlock) {
+      const std::uint32_t block_end = std::min(pairs_end, block + kBlock);
+      for (std::uint32_t k = block; k < block_end; ++k) {
+        while (row_begin_[row + 1] <= k) ++row;
+        first_of[k - block] = static_cast<std::uint32_t>(row);
+        prepare(k - block, row, std::size_t{second_[k]}, k);
+      }
+      for (std::uint32_t k = block; k < block_end; ++k) {
+        evaluate(k - block, std::size_t{first_of[k - block]}, std::size_t{second_[k]}, k);
+      }
+    }
+  }
+
+  /// The pairs of particle @p i: @p as_first(k) for each pair in which it is the first member,
+  /// then @p as_second(k) for each in which it is the second, each in list order. Serial; one
+  /// fixed order per particle, so sums over it are the same bytes for any thread count.
+  template <class AsFirst, class AsSecond>
+  [[gnu::always_inline]] void for_each_pair_of(std::size_t i, AsFirst&& as_first,
+                                               AsSecond&& as_second) const {
+    for (std::uint32_t k = row_begin_[i]; k < row_begin_[i + 1]; ++k) as_first(k);
+    for (std::uint32_t c = column_begin_[i]; c < column_begin_[i + 1]; ++c) {
+      as_second(column_pair_[c]);
+    }
+  }
+
   /// x_j - x_i of pair k, with the periodic image of j that the list sees from i.
   Eigen::Vector3d separation(const Particles& p, std::size_t i, std::size_t j,
                              std::uint32_t k) const {
-    const Eigen::Vector3d& s = shifts[image[k]];
+    const Eigen::Vector3d& s = shifts_[image_[k]];
     return {p.x[j] - p.x[i] + s.x(), p.y[j] - p.y[i] + s.y(), p.z[j] - p.z[i] + s.z()};
   }
 
   /// Offset to add to x_j - x_i for pair k (its periodic image of j).
-  const Eigen::Vector3d& shift(std::uint32_t k) const { return shifts[image[k]]; }
+  const Eigen::Vector3d& shift(std::uint32_t k) const { return shifts_[image_[k]]; }
 
   /// Number of builds so far (restored ones included).
-  std::int64_t build_count() const { return builds; }
-
-  std::vector<std::uint32_t>
-      row_begin;  ///< size n + 1: pairs of particle i are [row_begin[i], row_begin[i+1])
-  std::vector<std::uint32_t> second;        ///< j of each pair
-  std::vector<std::uint8_t> image;          ///< index into shifts: periodic image of j seen from i
-  std::vector<std::uint32_t> column_begin;  ///< size n + 1: transposed rows
-  std::vector<std::uint32_t> column_pair;   ///< pair indices in which particle j is second
-  std::array<Eigen::Vector3d, 27> shifts;   ///< add to x_j - x_i for image code k
-  std::int64_t builds = 0;                  ///< number of builds so far
+  std::int64_t build_count() const { return builds_; }
 
  private:
   /// Wrap periodic coordinates into the domain and fill the image shift table.
@@ -98,6 +129,14 @@ class NeighborList {
   /// Return the grid and per-thread buffers, which serve only while building.
   void release_scratch();
 
+  std::vector<std::uint32_t>
+      row_begin_;  ///< size n + 1: pairs of particle i are [row_begin_[i], row_begin_[i+1])
+  std::vector<std::uint32_t> second_;  ///< j of each pair
+  std::vector<std::uint8_t> image_;    ///< index into shifts_: periodic image of j seen from i
+  std::vector<std::uint32_t> column_begin_;  ///< size n + 1: transposed rows
+  std::vector<std::uint32_t> column_pair_;   ///< pair indices in which particle j is second
+  std::array<Eigen::Vector3d, 27> shifts_;   ///< add to x_j - x_i for image code k
+  std::int64_t builds_ = 0;                  ///< number of builds so far
   std::array<int, 3> cells_{1, 1, 1};
   Eigen::Vector3d cell_width_ = Eigen::Vector3d::Ones();
   std::vector<double> x0_, y0_, z0_;  ///< positions at the last build

@@ -28,6 +28,10 @@ PairCoefficients Case::pair_coefficients(int a, int b) const {
   return c;
 }
 
+NormalLawSpec normal_law_of(const Case& description) {
+  return BondLawSpec{description.bond.alpha};
+}
+
 Scene build_scene(const Case& description) {
   Scene scene;
   scene.material_count = static_cast<int>(description.materials.size());
@@ -36,7 +40,7 @@ Scene build_scene(const Case& description) {
       scene.pair_table.push_back(description.pair_coefficients(a, b));
     }
   }
-  scene.alpha = description.bond.alpha;
+  scene.normal_law = normal_law_of(description);
   scene.criterion = description.bond.criterion;
   scene.gravity = description.gravity;
   scene.time_step = description.time_step;

@@ -11,6 +11,7 @@
 #include "geometry/domain.hpp"
 #include "geometry/walls.hpp"
 #include "solver/engine/particles.hpp"
+#include "solver/models/normal_laws.hpp"
 #include "solver/models/pair.hpp"
 #include "solver/setup/case.hpp"
 
@@ -21,7 +22,7 @@ struct Scene {
   Particles particles;
   int material_count = 0;
   std::vector<PairCoefficients> pair_table;  ///< material_count^2 entries, row-major
-  double alpha = 1.0;                        ///< alpha_adh of every pair
+  NormalLawSpec normal_law;                  ///< the normal-force law and its run-wide parameters
   BondCriterion criterion = BondCriterion::kAlways;
   Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
   double time_step = 0.0;
@@ -53,6 +54,9 @@ struct Scene {
 
 /// Build the scene of a validated case; particle ids are their list positions.
 Scene build_scene(const Case& description);
+
+/// The normal-force law a validated case chooses, with its run-wide parameters.
+NormalLawSpec normal_law_of(const Case& description);
 
 /// Mass of a sphere of the given radius and density.
 double sphere_mass(double radius, double density);

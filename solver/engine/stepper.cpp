@@ -7,6 +7,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "solver/models/energy.hpp"
+
 namespace bondem {
 
 Stepper::Stepper(Scene& scene, PairFlag pair_flag)
@@ -47,75 +49,71 @@ Stepper::Stepper(Scene& scene, const StepperState& restored, PairFlag pair_flag)
   laser_missed_ = restored.laser_missed;
 }
 
-template <bool kFriction, class Adhesion>
-ContactSummary Stepper::dispatch_criterion(Adhesion adhesion) {
+template <bool kFriction, class Law>
+ContactSummary Stepper::dispatch_criterion(const Law& law) {
   const Particles& p = scene_.particles;
   switch (scene_.criterion) {
     case BondCriterion::kAlways:
       return compute_pair_forces<kFriction>(
-          p, scene_, list_, adhesion, [](std::size_t, std::size_t, std::size_t) { return true; },
+          p, scene_, list_, law, [](std::size_t, std::size_t, std::size_t) { return true; },
           pair_forces_, history_);
     case BondCriterion::kNever:
       return compute_pair_forces<kFriction>(
-          p, scene_, list_, adhesion, [](std::size_t, std::size_t, std::size_t) { return false; },
+          p, scene_, list_, law, [](std::size_t, std::size_t, std::size_t) { return false; },
           pair_forces_, history_);
     case BondCriterion::kTemperature: {
-      // Both hot enough now, or bonded already: a solidified neck does not melt away as the
-      // particles cool; it is lost only when the overlap falls back to delta_crit.
       const double bond_temperature = scene_.bond_temperature;
       const std::vector<double>& t = p.temperature;
       const std::vector<std::uint8_t>& bonded = pair_forces_.bonded;
       return compute_pair_forces<kFriction>(
-          p, scene_, list_, adhesion,
+          p, scene_, list_, law,
           [&](std::size_t i, std::size_t j, std::size_t k) {
-            return bonded[k] != 0 || (t[i] >= bond_temperature && t[j] >= bond_temperature);
+            return temperature_criterion(bonded[k] != 0, t[i], t[j], bond_temperature);
           },
           pair_forces_, history_);
     }
     case BondCriterion::kPairFlag:
       return compute_pair_forces<kFriction>(
-          p, scene_, list_, adhesion,
+          p, scene_, list_, law,
           [&](std::size_t i, std::size_t j, std::size_t) { return pair_flag_(p.id[i], p.id[j]); },
           pair_forces_, history_);
   }
   return {};
 }
 
-void Stepper::compute_forces(double laser_time) {
-  pair_forces_.resize(list_.pair_count(), scene_.friction, scene_.rolling(),
-                      scene_.particles.thermal());
-  if (scene_.friction && history_.sx.size() != list_.pair_count()) {
-    history_.resize(list_.pair_count());
-  }
-  ContactSummary pairs;
-  ContactSummary walls;
-  if (scene_.friction) {
-    pairs = scene_.alpha == 1.0 ? dispatch_criterion<true>(LinearAdhesion{})
-                                : dispatch_criterion<true>(GeneralAdhesion{scene_.alpha});
-    walls = gather_forces<true>(scene_.particles, scene_, list_, pair_forces_, wall_forces_);
-  } else {
-    pairs = scene_.alpha == 1.0 ? dispatch_criterion<false>(LinearAdhesion{})
-                                : dispatch_criterion<false>(GeneralAdhesion{scene_.alpha});
-    walls = gather_forces<false>(scene_.particles, scene_, list_, pair_forces_, wall_forces_);
-  }
+template <bool kFriction, class Law>
+ContactSummary Stepper::evaluate_forces(const Law& law) {
+  ContactSummary pairs = dispatch_criterion<kFriction>(law);
+  const ContactSummary walls =
+      gather_forces<kFriction>(scene_.particles, scene_, list_, law, pair_forces_, wall_forces_);
   pairs.wall_contacts = walls.wall_contacts;
   pairs.max_overlap = std::max(pairs.max_overlap, walls.max_overlap);
   pairs.max_overlap_fraction = std::max(pairs.max_overlap_fraction, walls.max_overlap_fraction);
   pairs.thermal_step_ratio = walls.thermal_step_ratio;
-  contacts_ = pairs;
+  return pairs;
+}
+
+void Stepper::compute_forces(double laser_time) {
+  // Pair slots are sized for the current list by apply_slips, which follows every build.
+  contacts_ = with_normal_law(scene_.normal_law, [&](const auto& law) {
+    return scene_.friction ? evaluate_forces<true>(law) : evaluate_forces<false>(law);
+  });
+  deposit_laser(laser_time);
+}
+
+void Stepper::deposit_laser(double laser_time) {
   laser_power_ = laser_missed_power_ = 0.0;
   Particles& p = scene_.particles;
-  if (p.thermal() && scene_.laser && std::isfinite(laser_time)) {
-    // Serial and in index order: the deposit does not depend on the thread count.
-    const Domain& domain = scene_.domain;
-    const LaserPeriods periods{domain.periodic[0] ? domain.length().x() : 0.0,
-                               domain.periodic[1] ? domain.length().y() : 0.0};
-    const LaserDeposit deposit =
-        deposit_laser_heat(p.x.data(), p.y.data(), p.z.data(), p.radius.data(), p.size(),
-                           *scene_.laser, laser_time, p.heat_rate.data(), laser_scratch_, periods);
-    laser_power_ = deposit.absorbed;
-    laser_missed_power_ = deposit.missed;
-  }
+  if (!p.thermal() || !scene_.laser || !std::isfinite(laser_time)) return;
+  // Serial and in index order: the deposit does not depend on the thread count.
+  const Domain& domain = scene_.domain;
+  const LaserPeriods periods{domain.periodic[0] ? domain.length().x() : 0.0,
+                             domain.periodic[1] ? domain.length().y() : 0.0};
+  const LaserDeposit deposit =
+      deposit_laser_heat(p.x.data(), p.y.data(), p.z.data(), p.radius.data(), p.size(),
+                         *scene_.laser, laser_time, p.heat_rate.data(), laser_scratch_, periods);
+  laser_power_ = deposit.absorbed;
+  laser_missed_power_ = deposit.missed;
 }
 
 std::vector<SlipRecord> Stepper::collect_slips() const {
@@ -169,9 +167,16 @@ void Stepper::apply_slips(std::vector<SlipRecord> slips) {
   });
 }
 
-void Stepper::step() {
+void Stepper::rebuild_list() {
+  const bool reorder =
+      scene_.reorder_interval > 0 && (list_.build_count() % scene_.reorder_interval) == 0;
+  std::vector<SlipRecord> slips = collect_slips();
+  list_.build(scene_.particles, scene_.domain, scene_.skin, reorder);
+  apply_slips(std::move(slips));
+}
+
+void Stepper::drift(double dt) {
   Particles& p = scene_.particles;
-  const double dt = scene_.time_step;
   const double half_dt = 0.5 * dt;
   const std::size_t n = p.size();
   // Tools move with the velocity prescribed at the start of the step.
@@ -193,16 +198,13 @@ void Stepper::step() {
   // Two particles moving toward each other close the gap by twice the largest displacement:
   // rebuild once that displacement exceeds half the skin.
   const double half_skin = 0.5 * scene_.skin;
-  if (list_.max_displacement_sq(p) > half_skin * half_skin) {
-    const bool reorder =
-        scene_.reorder_interval > 0 && (list_.builds % scene_.reorder_interval) == 0;
-    std::vector<SlipRecord> slips = collect_slips();
-    list_.build(p, scene_.domain, scene_.skin, reorder);
-    apply_slips(std::move(slips));
-  }
-  // The laser deposits at mid-step, so a beam on for T seconds delivers its power for T seconds
-  // to within one step.
-  compute_forces(time_ + half_dt);
+  if (list_.max_displacement_sq(p) > half_skin * half_skin) rebuild_list();
+}
+
+bool Stepper::finish_step(double dt) {
+  Particles& p = scene_.particles;
+  const double half_dt = 0.5 * dt;
+  const std::size_t n = p.size();
   if (scene_.friction) kick_spin(half_dt);
   bool finite = true;
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) reduction(&& : finite)
@@ -224,6 +226,16 @@ void Stepper::step() {
     laser_energy_ += laser_power_ * dt;
     laser_missed_ += laser_missed_power_ * dt;
   }
+  return finite;
+}
+
+void Stepper::step() {
+  const double dt = scene_.time_step;
+  drift(dt);
+  // The laser deposits at mid-step, so a beam on for T seconds delivers its power for T seconds
+  // to within one step.
+  compute_forces(time_ + 0.5 * dt);
+  const bool finite = finish_step(dt);
   bonds_formed_ += static_cast<std::int64_t>(contacts_.bonds_formed);
   bonds_broken_ += static_cast<std::int64_t>(contacts_.bonds_broken);
   time_ = static_cast<double>(++step_count_) * dt;
@@ -287,30 +299,40 @@ BlowUpError Stepper::diagnose_blow_up(bool finite) const {
   }
   message << "an overlap exceeds " << scene_.max_overlap_fraction
           << " of the smaller radius (largest: " << contacts_.max_overlap_fraction << ")";
+  if (std::optional<BlowUpError> pair = diagnose_deep_pair(message)) return *pair;
+  return diagnose_deep_boundary(message);
+}
+
+std::optional<BlowUpError> Stepper::diagnose_deep_pair(std::ostringstream& message) const {
+  const Particles& p = scene_.particles;
   // The first pair past the limit, and a tool touching either particle (the likely driver).
   std::optional<std::pair<std::size_t, std::size_t>> deepest;
   list_.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
-    const double overlap = p.radius[i] + p.radius[j] - list_.separation(p, i, j, k).norm();
+    const double overlap =
+        pair_overlap(p.radius[i], p.radius[j], list_.separation(p, i, j, k).norm());
     if (overlap > scene_.max_overlap_fraction * std::min(p.radius[i], p.radius[j])) {
       deepest.emplace(i, j);
       return false;
     }
     return true;
   });
-  if (deepest) {
-    const auto [i, j] = *deepest;
-    message << "; particle ids " << p.id[i] << " and " << p.id[j];
-    for (const std::size_t m : {i, j}) {
-      const Eigen::Vector3d centre(p.x[m], p.y[m], p.z[m]);
-      for (const Body& body : scene_.bodies) {
-        if (!surely_apart(body, centre, p.radius[m])) {
-          message << " (id " << p.id[m] << " touched by tool '" << body.name << "')";
-          return BlowUpError(message.str(), BlowUpCause::kTool);
-        }
+  if (!deepest) return std::nullopt;
+  const auto [i, j] = *deepest;
+  message << "; particle ids " << p.id[i] << " and " << p.id[j];
+  for (const std::size_t m : {i, j}) {
+    const Eigen::Vector3d centre(p.x[m], p.y[m], p.z[m]);
+    for (const Body& body : scene_.bodies) {
+      if (!surely_apart(body, centre, p.radius[m])) {
+        message << " (id " << p.id[m] << " touched by tool '" << body.name << "')";
+        return BlowUpError(message.str(), BlowUpCause::kTool);
       }
     }
-    return BlowUpError(message.str());
   }
+  return BlowUpError(message.str());
+}
+
+BlowUpError Stepper::diagnose_deep_boundary(std::ostringstream& message) const {
+  const Particles& p = scene_.particles;
   // A particle in a wall or tool: name the tool first, as a tool pressing a particle into a wall
   // is the likely driver of both overlaps.
   for (std::size_t i = 0; i < p.size(); ++i) {
@@ -374,7 +396,7 @@ double Stepper::kinetic_energy() const {
   const Particles& p = scene_.particles;
   double energy = 0.0;
   for (std::size_t i = 0; i < p.size(); ++i) {
-    energy += 0.5 * p.mass[i] * (p.vx[i] * p.vx[i] + p.vy[i] * p.vy[i] + p.vz[i] * p.vz[i]);
+    energy += translational_energy(p.mass[i], p.vx[i], p.vy[i], p.vz[i]);
   }
   return energy;
 }
@@ -383,8 +405,7 @@ double Stepper::rotational_energy() const {
   const Particles& p = scene_.particles;
   double energy = 0.0;
   for (std::size_t i = 0; i < p.size(); ++i) {
-    energy +=
-        0.5 / p.inverse_inertia(i) * (p.wx[i] * p.wx[i] + p.wy[i] * p.wy[i] + p.wz[i] * p.wz[i]);
+    energy += bondem::rotational_energy(p.inverse_inertia(i), p.wx[i], p.wy[i], p.wz[i]);
   }
   return energy;
 }

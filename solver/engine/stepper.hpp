@@ -4,6 +4,8 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -110,12 +112,32 @@ class Stepper {
   /// Forces (and heat flows) at the current positions; @p laser_time, when finite, is the time at
   /// which the laser deposits heat during this step.
   void compute_forces(double laser_time);
+  /// Both passes with the normal-force law @p law; returns what they saw, merged.
+  template <bool kFriction, class Law>
+  ContactSummary evaluate_forces(const Law& law);
+  /// Pass 1 with the scene's bond criterion compiled in.
+  template <bool kFriction, class Law>
+  ContactSummary dispatch_criterion(const Law& law);
+  /// The laser's heat deposit of this step into p.heat_rate (thermal runs with a laser).
+  void deposit_laser(double laser_time);
+  /// Half kick, drift, and a list rebuild when some particle has moved half the skin.
+  void drift(double dt);
+  /// Second half kick and the heat step; returns whether every value stayed finite.
+  bool finish_step(double dt);
   void kick_spin(double half_dt);
+  /// The per-pair state (springs, bond flags) of the pairs that have any, keyed by particle ids:
+  /// the one carry-over across list rebuilds (reordering included) and restarts.
   std::vector<SlipRecord> collect_slips() const;
+  /// Clean pair slots for the current list, refilled from @p slips by particle ids.
   void apply_slips(std::vector<SlipRecord> slips);
+  /// Rebuild the list (reordering the particles every reorder_interval builds), carrying the
+  /// per-pair state over by ids.
+  void rebuild_list();
   BlowUpError diagnose_blow_up(bool finite) const;
-  template <bool kFriction, class Adhesion>
-  ContactSummary dispatch_criterion(Adhesion adhesion);
+  /// Adds the pair past the overlap limit, and a tool touching it, to @p message.
+  std::optional<BlowUpError> diagnose_deep_pair(std::ostringstream& message) const;
+  /// Adds a particle in a wall or tool to @p message.
+  BlowUpError diagnose_deep_boundary(std::ostringstream& message) const;
 
   Scene& scene_;
   PairFlag pair_flag_;

@@ -13,15 +13,6 @@
 
 namespace bondem {
 
-double hertz_max_overlap(double e_star, double r_star, double m_star, double velocity) {
-  return std::pow(15.0 * m_star * velocity * velocity / (16.0 * e_star * std::sqrt(r_star)), 0.4);
-}
-
-double hertz_contact_time(double e_star, double r_star, double m_star, double velocity) {
-  static const double integral = std::sqrt(std::numbers::pi) * std::tgamma(1.4) / std::tgamma(0.9);
-  return 2.0 * integral * hertz_max_overlap(e_star, r_star, m_star, velocity) / velocity;
-}
-
 double critical_velocity(double e_star, double r_star, double m_star, double critical_overlap) {
   const double scale = std::pow(16.0 * e_star * std::sqrt(r_star) / (15.0 * m_star), 0.4);
   return std::pow(scale * critical_overlap, 1.25);
@@ -99,7 +90,6 @@ PairReport compute_pair_report(const Case& description, int material_a, double r
       effective_mass(sphere_mass(radius_a, a.density), sphere_mass(radius_b, b.density));
   const BondPair pair = make_bond_pair(coefficients, r_star, m_star);
   const double e_star = coefficients.effective_modulus;
-  const double alpha = coefficients.alpha;
 
   PairReport report{};
   report.effective_modulus = e_star;
@@ -109,27 +99,26 @@ PairReport compute_pair_report(const Case& description, int material_a, double r
   report.equilibrium_overlap = pair.equilibrium_overlap;
   report.critical_overlap = pair.critical_overlap;
   report.critical_velocity = critical_velocity(e_star, r_star, m_star, pair.critical_overlap);
-  // eq. 24 at delta_eq
-  report.bond_stiffness =
-      2.0 * e_star * std::sqrt(r_star * pair.equilibrium_overlap) -
-      alpha * pair.adhesion_stiffness * std::pow(pair.equilibrium_overlap, alpha - 1.0);
   // Without bonding there is no bond oscillation to resolve.
   report.bonding = description.bond.criterion != BondCriterion::kNever;
-  report.bond_period = report.bonding
-                           ? 2.0 * std::numbers::pi * std::sqrt(m_star / report.bond_stiffness)
-                           : std::numeric_limits<double>::infinity();
   report.reference_velocity = reference_velocity;
-  report.max_overlap = hertz_max_overlap(e_star, r_star, m_star, reference_velocity);
-  report.contact_time = hertz_contact_time(e_star, r_star, m_star, reference_velocity);
+  // The time scales are the normal-force law's: the rule below has no branch per law.
+  const NormalTimeScales scales = with_normal_law(normal_law_of(description), [&](const auto& law) {
+    return law.time_scales(coefficients, r_star, m_star, reference_velocity, report.bonding);
+  });
+  report.impact = scales.impact;
+  report.bond_stiffness = scales.oscillation_stiffness;
+  report.bond_period = scales.oscillation_period;
+  report.max_overlap = scales.impact_overlap;
+  report.contact_time = scales.contact_time;
   report.rayleigh_time = std::min(rayleigh_time(radius_a, a), rayleigh_time(radius_b, b));
-  // Damping drives the overlap less deep than the undamped maximum: its stiffness is the most a
-  // contact at the reference speed reaches.
-  report.contact_stiffness = 2.0 * e_star * std::sqrt(r_star * report.max_overlap);
+  report.contact_stiffness = scales.contact_stiffness;
   report.contact_damper_step =
-      damper_time_step(report.contact_stiffness, m_star, coefficients.contact_damping);
+      damper_time_step(scales.contact_stiffness, m_star, scales.contact_damping);
   report.bond_damper_step =
-      report.bonding ? damper_time_step(report.bond_stiffness, m_star, coefficients.bond_damping)
-                     : std::numeric_limits<double>::infinity();
+      std::isinf(scales.oscillation_period)
+          ? std::numeric_limits<double>::infinity()
+          : damper_time_step(scales.oscillation_stiffness, m_star, scales.oscillation_damping);
   report.restitution = hertz_restitution(coefficients.contact_damping);
   report.recommended_time_step =
       recommended_time_step(report.contact_time, report.bond_period, report.rayleigh_time,
@@ -260,7 +249,8 @@ TimeStepLimit case_time_step_bound(const Case& c) {
                                                static_cast<int>(b), smallest[b], speed);
       const std::string pair = " of [" + name_of(a) + " " + name_of(b) + "]";
       tighten(limit, r.contact_time / kStepsPerOscillation,
-              "t_contact/50 of a Hertz impact at " + message_number(speed) + " m/s" + pair);
+              "t_contact/50 of " + std::string(r.impact) + " at " + message_number(speed) + " m/s" +
+                  pair);
       tighten(limit, r.bond_period / kStepsPerOscillation, "T_bond/50" + pair);
       tighten(limit, kRayleighStepFraction * r.rayleigh_time, "0.2 T_Rayleigh" + pair);
       tighten(limit, r.contact_damper_step,
@@ -276,11 +266,12 @@ TimeStepLimit case_time_step_bound(const Case& c) {
     for (std::size_t a = 0; a < n; ++a) {
       if (smallest[a] == 0.0) continue;
       const PairCoefficients coefficients = c.pair_coefficients(static_cast<int>(a), material);
-      const double e_star = coefficients.effective_modulus;
       const double r = smallest[a];
       const double m = sphere_mass(r, c.materials[a].density);
-      const double stiffness = 2.0 * e_star * std::sqrt(r * hertz_max_overlap(e_star, r, m, speed));
-      tighten(limit, damper_time_step(stiffness, m, coefficients.contact_damping),
+      const NormalTimeScales scales = with_normal_law(normal_law_of(c), [&](const auto& law) {
+        return law.time_scales(coefficients, r, m, speed, false);
+      });
+      tighten(limit, damper_time_step(scales.contact_stiffness, m, scales.contact_damping),
               "the stability of the contact damper (contact.damping_ratio = " +
                   message_number(c.contact_damping) + ") of [" + name_of(a) + "] on " + what);
     }

@@ -5,16 +5,10 @@
 #include <string>
 #include <vector>
 
+#include "solver/models/bond_law.hpp"
 #include "solver/setup/case.hpp"
 
 namespace bondem {
-
-/// Largest overlap of an undamped Hertz impact at relative speed v, eq. 20 [m].
-double hertz_max_overlap(double e_star, double r_star, double m_star, double velocity);
-
-/// Duration of an undamped Hertz impact at relative speed v [s]: 2 I delta_max / v with
-/// I = integral_0^1 (1 - x^(5/2))^(-1/2) dx = sqrt(pi) Gamma(7/5) / Gamma(9/10) = 1.4716.
-double hertz_contact_time(double e_star, double r_star, double m_star, double velocity);
 
 /// Smallest impact speed whose undamped Hertz overlap reaches delta_crit, eq. 21 [m/s].
 double critical_velocity(double e_star, double r_star, double m_star, double critical_overlap);
@@ -65,6 +59,7 @@ struct PairReport {
   double bond_period;            ///< 2 pi sqrt(m* / k*(delta_eq)), small oscillations of a bond [s]
   bool bonding;                  ///< the case's bond criterion can bond this pair (not `never`)
   double reference_velocity;     ///< impact speed used for the two Hertz quantities below [m/s]
+  const char* impact;            ///< what the normal-force law's impact is, for messages
   double max_overlap;            ///< undamped Hertz maximum overlap at the reference speed [m]
   double contact_time;           ///< undamped Hertz contact duration at the reference speed [s]
   double rayleigh_time;          ///< the smaller particle's Rayleigh time [s]

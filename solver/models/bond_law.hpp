@@ -6,7 +6,9 @@
 /// force on particle i, where n_ij points from i to j: negative pushes i away from j (repulsion),
 /// positive pulls i toward j (attraction). Particle j receives the opposite force.
 
+#include <algorithm>
 #include <cmath>
+#include <numbers>
 
 namespace bondem {
 
@@ -32,6 +34,13 @@ constexpr bool criterion_holds(BondCriterion criterion, bool pair_flag) {
       return pair_flag;
   }
   return false;
+}
+
+/// Criterion kTemperature for a pair at temperatures @p t_i, @p t_j: both at or above
+/// @p bond_temperature, or @p bonded already (a solidified neck does not melt away as the particles
+/// cool; it is lost only when the overlap falls back to delta_crit).
+inline bool temperature_criterion(bool bonded, double t_i, double t_j, double bond_temperature) {
+  return bonded || (t_i >= bond_temperature && t_j >= bond_temperature);
 }
 
 /// Adhesion exponent alpha_adh = 1 (the paper's choice): integer powers only, no std::pow.
@@ -109,6 +118,38 @@ NormalForce normal_force(const BondPair& pair, Adhesion adhesion, double overlap
     return {bond_force(pair, adhesion, overlap, overlap_rate), true};
   }
   return {hertz_contact_force(pair, overlap, overlap_rate), false};
+}
+
+/// The normal load that limits a contact's friction (Coulomb mu * load). A bond presses the
+/// surfaces together with its Hertz part even where the net normal force vanishes (at delta_eq):
+/// that load, not the net force, limits its friction. A contact presses with -f (never attracts).
+inline double friction_load(const BondPair& pair, const NormalForce& f, double overlap) {
+  return f.bonded ? pair.hertz_stiffness * overlap * std::sqrt(overlap) : std::max(0.0, -f.force);
+}
+
+/// Largest overlap of an undamped Hertz impact at relative speed v, eq. 20 [m].
+inline double hertz_max_overlap(double e_star, double r_star, double m_star, double velocity) {
+  return std::pow(15.0 * m_star * velocity * velocity / (16.0 * e_star * std::sqrt(r_star)), 0.4);
+}
+
+/// Duration of an undamped Hertz impact at relative speed v [s]: 2 I delta_max / v with
+/// I = integral_0^1 (1 - x^(5/2))^(-1/2) dx = sqrt(pi) Gamma(7/5) / Gamma(9/10) = 1.4716.
+inline double hertz_contact_time(double e_star, double r_star, double m_star, double velocity) {
+  static const double integral = std::sqrt(std::numbers::pi) * std::tgamma(1.4) / std::tgamma(0.9);
+  return 2.0 * integral * hertz_max_overlap(e_star, r_star, m_star, velocity) / velocity;
+}
+
+/// Hertz tangent stiffness k_con = 2 E* sqrt(r* delta) = (3/2) (4/3) E* sqrt(r*) sqrt(delta) [N/m].
+inline double hertz_tangent_stiffness(double e_star, double r_star, double overlap) {
+  return 2.0 * e_star * std::sqrt(r_star * overlap);
+}
+
+/// Tangent stiffness k* of a bond at overlap delta, eq. 24:
+/// 2 E* sqrt(r* delta) - alpha k_adh delta^(alpha - 1) [N/m].
+inline double bond_tangent_stiffness(double e_star, double r_star, double alpha,
+                                     double adhesion_stiffness, double overlap) {
+  return 2.0 * e_star * std::sqrt(r_star * overlap) -
+         alpha * adhesion_stiffness * std::pow(overlap, alpha - 1.0);
 }
 
 }  // namespace bondem

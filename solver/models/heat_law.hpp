@@ -65,6 +65,12 @@ inline double spot_conductance(double k_eff, double a) {
   return 2.0 * k_eff * a;
 }
 
+/// Heat flow into a body at @p t_self through a contact of @p conductance H with a body (particle
+/// or wall) at @p t_other: H (T_other - T_self) [W].
+inline double contact_heat_flow(double conductance, double t_self, double t_other) {
+  return conductance * (t_other - t_self);
+}
+
 /// Conductance that radiation adds to the explicit step limit: the slope of eps sigma A T^4
 /// between T and T_amb is at most 4 eps sigma A max(T, T_amb)^3 [W/K].
 inline double radiation_conductance(double emissivity, double area, double t_ambient, double t) {
@@ -86,6 +92,21 @@ inline double radiation_heat(double emissivity, double area, double t_ambient, d
   return emissivity * kStefanBoltzmann * area * (ambient2 * ambient2 - t2 * t2);
 }
 
+/// A particle's exchange with its surroundings: the heat it gains and the conductance that the
+/// exchange adds to the explicit step limit.
+struct SurroundingsExchange {
+  double heat;         ///< convection + radiation into the particle [W]
+  double conductance;  ///< h A + radiation_conductance() [W/K]
+};
+
+/// Convection (coefficient @p h) and radiation (@p emissivity) of a particle of exposed @p area at
+/// temperature @p t to surroundings at @p t_ambient.
+inline SurroundingsExchange surroundings_exchange(double h, double emissivity, double area,
+                                                  double t_ambient, double t) {
+  return {convection_heat(h, area, t_ambient, t) + radiation_heat(emissivity, area, t_ambient, t),
+          h * area + radiation_conductance(emissivity, area, t_ambient, t)};
+}
+
 /// Surface area of a sphere of radius @p r, 4 pi r^2 [m^2].
 inline double sphere_surface_area(double r) {
   return 4.0 * std::numbers::pi * r * r;
@@ -102,6 +123,12 @@ inline double sphere_heat_capacity(double mass, double specific_heat) {
 inline double thermal_time_step_limit(double capacity, double total_conductance) {
   return total_conductance > 0.0 ? capacity / total_conductance
                                  : std::numeric_limits<double>::infinity();
+}
+
+/// dt sum(H) C^-1 of a particle with total conductance sum(H) and inverse heat capacity 1/C: the
+/// explicit heat step is stable while this stays <= 1 (see the file comment).
+inline double thermal_step_ratio(double dt, double total_conductance, double inverse_capacity) {
+  return dt * total_conductance * inverse_capacity;
 }
 
 }  // namespace bondem

@@ -28,6 +28,13 @@ inline double hertz_stiffness(double e_star, double r_star) {
   return 4.0 / 3.0 * e_star * std::sqrt(r_star);
 }
 
+/// Radius a of the contact spot of a pair with effective radius r* at overlap delta > 0, formed as
+/// sqrt(r*) sqrt(delta): the same a as contact_radius() (heat_law.hpp) up to rounding, in the form
+/// the contact laws have always used (and their outputs' bytes depend on).
+inline double spot_radius(double r_star, double overlap) {
+  return std::sqrt(r_star) * std::sqrt(overlap);
+}
+
 /// How a case sets the adhesion strength: k_adh directly, or the overlap the bond settles at.
 enum class AdhesionInput { kStiffness, kEquilibriumOverlap };
 
@@ -94,6 +101,13 @@ inline BondPair make_bond_pair(const PairCoefficients& c, double r_star, double 
   }
   return BondPair{k_hertz,           m_star,        k_adh, delta_eq, c.critical_ratio * delta_eq,
                   c.contact_damping, c.bond_damping};
+}
+
+/// The law's coefficients for a particle of @p radius and @p mass on a wall or tool: a sphere of
+/// infinite radius and mass (r* = r, m* = m) that never bonds.
+inline BondPair make_wall_pair(const PairCoefficients& c, double radius, double mass) {
+  return BondPair{
+      hertz_stiffness(c.effective_modulus, radius), mass, 0.0, 0.0, 0.0, c.contact_damping, 0.0};
 }
 
 }  // namespace bondem

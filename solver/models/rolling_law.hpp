@@ -8,6 +8,12 @@
 
 namespace bondem {
 
+/// Effective moment of inertia I* = I_i I_j / (I_i + I_j) = 1 / (1/I_i + 1/I_j) of a pair, from the
+/// inverse inertias; a wall or tool has 1/I = 0, so a particle on it has I* = I_i [kg m^2].
+inline double effective_inertia(double inverse_inertia_i, double inverse_inertia_j) {
+  return 1.0 / (inverse_inertia_i + inverse_inertia_j);
+}
+
 /// Rolling-resistance torque on particle i: -mu_r r* F_n along the relative rolling direction
 /// omega_i - omega_j. Its size is capped so that one step cannot reverse the relative spin
 /// (|tau| <= I* |omega_rel| / dt), which removes the chatter model A shows at rest.

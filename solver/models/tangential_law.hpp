@@ -21,6 +21,19 @@ inline double mindlin_stiffness(double shear_modulus_star, double contact_radius
   return 8.0 * shear_modulus_star * contact_radius;
 }
 
+/// Tangential dashpot d_t = 2 xi sqrt(m* k_t): the normal contact's damping ratio xi applied to the
+/// tangential spring k_t and the pair's effective mass m* (m for a particle on a wall) [N s/m].
+inline double tangential_damping(double damping_ratio, double mass, double stiffness) {
+  return 2.0 * damping_ratio * std::sqrt(mass * stiffness);
+}
+
+/// The part of the relative contact velocity @p contact_velocity in the tangent plane of the unit
+/// @p normal: the velocity that slides the surfaces over each other.
+inline Eigen::Vector3d sliding_velocity(const Eigen::Vector3d& contact_velocity,
+                                        const Eigen::Vector3d& normal) {
+  return contact_velocity - contact_velocity.dot(normal) * normal;
+}
+
 /// Cundall-Strack tangential spring with history.
 /// @param normal        unit n_ij (from i to j)
 /// @param slip          elongation stored last step (any orientation; projected here)

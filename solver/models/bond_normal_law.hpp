@@ -1,0 +1,70 @@
+#pragma once
+/// @file bond_normal_law.hpp
+/// The Hertz + adhesion bond law (bond_law.hpp) as the kernels' normal-force law (normal_law.hpp).
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "solver/models/bond_law.hpp"
+#include "solver/models/normal_law.hpp"
+#include "solver/models/pair.hpp"
+
+namespace bondem {
+
+/// Run-wide parameters of the bond law beyond the material pairs' (the `bond:` block).
+struct BondLawSpec {
+  double alpha = 1.0;  ///< adhesion exponent alpha_adh
+};
+
+/// Hertz contact (eq. 26) and, past delta_crit where the criterion holds, the bond (eq. 15, 22-25).
+/// @tparam Adhesion LinearAdhesion (alpha_adh = 1, no std::pow) or GeneralAdhesion.
+template <class Adhesion>
+struct BondNormalLaw {
+  using Pair = BondPair;
+  Adhesion adhesion;
+
+  Pair pair(const PairCoefficients& c, double r_star, double m_star) const {
+    return make_bond_pair(c, r_star, m_star);
+  }
+  Pair surface_pair(const PairCoefficients& c, double radius, double mass) const {
+    return make_wall_pair(c, radius, mass);
+  }
+  NormalForce force(const Pair& pair, double overlap, double overlap_rate,
+                    bool criterion_met) const {
+    return normal_force(pair, adhesion, overlap, overlap_rate, criterion_met);
+  }
+  double surface_force(const Pair& pair, double overlap, double overlap_rate) const {
+    return hertz_contact_force(pair, overlap, overlap_rate);
+  }
+  double friction_load(const Pair& pair, const NormalForce& f, double overlap) const {
+    return bondem::friction_load(pair, f, overlap);
+  }
+  /// A wall contact never attracts: its load is the repulsion itself.
+  double surface_friction_load(double surface_force) const { return -surface_force; }
+
+  /// Hertz impact at @p impact_speed (eq. 20) and, when @p bonding, the small oscillations of a
+  /// bond about delta_eq (eq. 24).
+  static NormalTimeScales time_scales(const PairCoefficients& c, double r_star, double m_star,
+                                      double impact_speed, bool bonding) {
+    const BondPair pair = make_bond_pair(c, r_star, m_star);
+    const double e_star = c.effective_modulus;
+    NormalTimeScales s{};
+    s.impact = "a Hertz impact";
+    s.impact_overlap = hertz_max_overlap(e_star, r_star, m_star, impact_speed);
+    s.contact_time = hertz_contact_time(e_star, r_star, m_star, impact_speed);
+    // Damping drives the overlap less deep than the undamped maximum: its stiffness is the most a
+    // contact at the speed reaches.
+    s.contact_stiffness = hertz_tangent_stiffness(e_star, r_star, s.impact_overlap);
+    s.contact_damping = c.contact_damping;
+    s.oscillation_stiffness = bond_tangent_stiffness(
+        e_star, r_star, c.alpha, pair.adhesion_stiffness, pair.equilibrium_overlap);
+    s.oscillation_damping = c.bond_damping;
+    s.oscillation_period =
+        bonding ? 2.0 * std::numbers::pi * std::sqrt(m_star / s.oscillation_stiffness)
+                : std::numeric_limits<double>::infinity();
+    return s;
+  }
+};
+
+}  // namespace bondem

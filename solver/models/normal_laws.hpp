@@ -1,0 +1,43 @@
+#pragma once
+/// @file normal_laws.hpp
+/// The registry of normal-force laws: the one place that maps a run's choice to a compiled law.
+///
+/// To add a law (see CONTRIBUTING.md): write its header (the law object of normal_law.hpp and its
+/// Spec of run-wide parameters), add the Spec to NormalLawSpec and one line to with_normal_law
+/// below, and read it in io/case_file.cpp. The kernels, the stepper and the time-step rule need no
+/// change: they are written once against the law object.
+
+#include <variant>
+
+#include "solver/models/bond_normal_law.hpp"
+
+namespace bondem {
+
+/// The normal-force law of a run with its run-wide parameters: one alternative per law.
+using NormalLawSpec = std::variant<BondLawSpec>;
+
+namespace detail {
+template <class... Ts>
+struct Overloaded : Ts... {
+  using Ts::operator()...;
+};
+template <class... Ts>
+Overloaded(Ts...) -> Overloaded<Ts...>;
+}  // namespace detail
+
+/// Calls @p visit(law) with the law object of @p spec and returns what it returns (the same type
+/// for every law). The kernels are compiled once per law object, here.
+template <class Visit>
+decltype(auto) with_normal_law(const NormalLawSpec& spec, Visit&& visit) {
+  return std::visit(
+      detail::Overloaded{
+          [&](const BondLawSpec& bond) {
+            // alpha_adh = 1 needs no std::pow: a law object of its own.
+            return bond.alpha == 1.0 ? visit(BondNormalLaw<LinearAdhesion>{})
+                                     : visit(BondNormalLaw<GeneralAdhesion>{{bond.alpha}});
+          },
+      },
+      spec);
+}
+
+}  // namespace bondem
