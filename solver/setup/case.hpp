@@ -82,7 +82,7 @@ struct Case {
   std::vector<ParticleSpec> particles;  ///< explicit ones first, then each insertion in order
   std::optional<Domain> domain;  ///< absent: the particles' bounding box, padded, not periodic
   std::vector<PlaneWall> walls;
-  std::vector<Body> bodies;   ///< moving tools: blades and rollers
+  std::vector<Body> bodies;   ///< moving tools: blades, rollers, spheres
   double skin = 0.0;          ///< Verlet skin [m]; 0 picks 0.2 x the largest radius
   int reorder_interval = 20;  ///< neighbor-list builds between reorderings by cell (0: never)
   double max_overlap_fraction = 0.25;  ///< overlap / smaller radius that stops a run (blow-up)
