@@ -501,10 +501,30 @@ std::vector<ParticleSpec> insert_random_fill(const FillRequest& request,
   return out;
 }
 
-std::optional<InitialOverlap> find_initial_overlap(const std::vector<ParticleSpec>& particles,
-                                                   const Domain* domain, double max_fraction) {
+namespace {
+
+/// Particle specs binned in cells of edge >= 2 r_max, so that every partner of a particle lies in
+/// the 27 cells around it; periodic axes span the domain.
+struct SpecGrid {
+  std::array<bool, 3> periodic{false, false, false};
+  Eigen::Vector3d period = Eigen::Vector3d::Zero();  ///< domain length on periodic axes
+  std::array<std::size_t, 3> cells{};
+  std::vector<std::size_t> cell_of;  ///< cell of each particle
+  std::vector<std::size_t> begin;    ///< size cells + 1
+  std::vector<std::size_t> items;    ///< particles by cell, in index order within a cell
+
+  /// Cell coordinates of particle @p i.
+  std::array<std::size_t, 3> home(std::size_t i) const {
+    return {cell_of[i] % cells[0], cell_of[i] / cells[0] % cells[1],
+            cell_of[i] / (cells[0] * cells[1])};
+  }
+};
+
+/// Bin @p particles (count -> scan -> fill); coordinates are clamped into the grid, which keeps
+/// the 27-cell property true for any particle.
+SpecGrid bin_specs(const std::vector<ParticleSpec>& particles, const Domain* domain) {
   const std::size_t n = particles.size();
-  if (n < 2) return std::nullopt;
+  SpecGrid grid;
   double r_max = 0.0;
   Eigen::Vector3d lo = particles.front().position, hi = lo;
   for (const ParticleSpec& p : particles) {
@@ -512,99 +532,114 @@ std::optional<InitialOverlap> find_initial_overlap(const std::vector<ParticleSpe
     lo = lo.cwiseMin(p.position);
     hi = hi.cwiseMax(p.position);
   }
-  std::array<bool, 3> periodic{false, false, false};
-  Eigen::Vector3d period = Eigen::Vector3d::Zero();
   if (domain != nullptr) {
-    periodic = domain->periodic;
+    grid.periodic = domain->periodic;
     for (int a = 0; a < 3; ++a) {
-      if (!periodic[a]) continue;
+      if (!grid.periodic[a]) continue;
       lo[a] = domain->min[a];
       hi[a] = domain->max[a];
-      period[a] = domain->max[a] - domain->min[a];
+      grid.period[a] = domain->max[a] - domain->min[a];
     }
   }
-  // Cells of edge >= 2 r_max hold every partner of a particle in the 27 cells around it;
-  // coordinates are clamped into the grid, which keeps that true for any particle.
   const Box bounds{lo, lo + (hi - lo).cwiseMax(Eigen::Vector3d::Constant(2.0 * r_max))};
-  const std::array<std::size_t, 3> cells =
-      grid_cells(bounds, 2.0 * r_max, static_cast<double>(n) + 64.0);
+  grid.cells = grid_cells(bounds, 2.0 * r_max, static_cast<double>(n) + 64.0);
   std::array<double, 3> width{};
   for (int a = 0; a < 3; ++a) {
-    width[a] = (bounds.max[a] - bounds.min[a]) / static_cast<double>(cells[a]);
+    width[a] = (bounds.max[a] - bounds.min[a]) / static_cast<double>(grid.cells[a]);
   }
   const auto cell_coordinate = [&](int a, double v) -> std::size_t {
     const double c = std::floor((v - bounds.min[a]) / width[a]);
     if (!(c > 0.0)) return 0;
-    return static_cast<std::size_t>(std::min(c, static_cast<double>(cells[a] - 1)));
+    return static_cast<std::size_t>(std::min(c, static_cast<double>(grid.cells[a] - 1)));
   };
-  // count -> scan -> fill: each cell lists its particles in index order.
-  std::vector<std::size_t> cell_of(n);
-  std::vector<std::size_t> begin(cells[0] * cells[1] * cells[2] + 1, 0);
+  grid.cell_of.assign(n, 0);
+  grid.begin.assign(grid.cells[0] * grid.cells[1] * grid.cells[2] + 1, 0);
   for (std::size_t i = 0; i < n; ++i) {
     const Eigen::Vector3d& x = particles[i].position;
-    cell_of[i] = (cell_coordinate(2, x.z()) * cells[1] + cell_coordinate(1, x.y())) * cells[0] +
-                 cell_coordinate(0, x.x());
-    ++begin[cell_of[i] + 1];
+    grid.cell_of[i] =
+        (cell_coordinate(2, x.z()) * grid.cells[1] + cell_coordinate(1, x.y())) * grid.cells[0] +
+        cell_coordinate(0, x.x());
+    ++grid.begin[grid.cell_of[i] + 1];
   }
-  for (std::size_t c = 1; c < begin.size(); ++c) begin[c] += begin[c - 1];
-  std::vector<std::size_t> items(n);
-  std::vector<std::size_t> cursor(begin.begin(), begin.end() - 1);
-  for (std::size_t i = 0; i < n; ++i) items[cursor[cell_of[i]]++] = i;
+  for (std::size_t c = 1; c < grid.begin.size(); ++c) grid.begin[c] += grid.begin[c - 1];
+  grid.items.assign(n, 0);
+  std::vector<std::size_t> cursor(grid.begin.begin(), grid.begin.end() - 1);
+  for (std::size_t i = 0; i < n; ++i) grid.items[cursor[grid.cell_of[i]]++] = i;
+  return grid;
+}
 
-  for (std::size_t i = 0; i < n; ++i) {
-    const ParticleSpec& p = particles[i];
-    std::array<std::size_t, 3> home{};
-    home[0] = cell_of[i] % cells[0];
-    home[1] = cell_of[i] / cells[0] % cells[1];
-    home[2] = cell_of[i] / (cells[0] * cells[1]);
-    // Cells to visit per axis: the neighbors, wrapped on periodic axes, each once (at most 3).
-    std::array<std::array<std::size_t, 3>, 3> visit{};
-    std::array<std::size_t, 3> visits{};
-    for (std::size_t a = 0; a < 3; ++a) {
-      const std::size_t count = cells[a];
-      for (int offset = -1; offset <= 1; ++offset) {
-        const auto c = static_cast<long long>(home[a]) + offset;
-        std::size_t cell = 0;
-        if (c >= 0 && c < static_cast<long long>(count)) {
-          cell = static_cast<std::size_t>(c);
-        } else if (periodic[a]) {
-          cell = c < 0 ? count - 1 : 0;
-        } else {
-          continue;
-        }
-        const auto listed = visit[a].begin() + static_cast<std::ptrdiff_t>(visits[a]);
-        if (std::find(visit[a].begin(), listed, cell) == listed) visit[a][visits[a]++] = cell;
+/// Cells to visit per axis around @p home: the neighbors, wrapped on periodic axes, each once (at
+/// most 3 per axis, their number in @p visits).
+void neighbor_cells(const SpecGrid& grid, const std::array<std::size_t, 3>& home,
+                    std::array<std::array<std::size_t, 3>, 3>& visit,
+                    std::array<std::size_t, 3>& visits) {
+  visits = {0, 0, 0};
+  for (std::size_t a = 0; a < 3; ++a) {
+    const std::size_t count = grid.cells[a];
+    for (int offset = -1; offset <= 1; ++offset) {
+      const auto c = static_cast<long long>(home[a]) + offset;
+      std::size_t cell = 0;
+      if (c >= 0 && c < static_cast<long long>(count)) {
+        cell = static_cast<std::size_t>(c);
+      } else if (grid.periodic[a]) {
+        cell = c < 0 ? count - 1 : 0;
+      } else {
+        continue;
       }
+      const auto listed = visit[a].begin() + static_cast<std::ptrdiff_t>(visits[a]);
+      if (std::find(visit[a].begin(), listed, cell) == listed) visit[a][visits[a]++] = cell;
     }
-    std::optional<InitialOverlap> found;
-    for (std::size_t vz = 0; vz < visits[2]; ++vz) {
-      for (std::size_t vy = 0; vy < visits[1]; ++vy) {
-        for (std::size_t vx = 0; vx < visits[0]; ++vx) {
-          const std::size_t cell =
-              (visit[2][vz] * cells[1] + visit[1][vy]) * cells[0] + visit[0][vx];
-          for (std::size_t k = begin[cell]; k < begin[cell + 1]; ++k) {
-            const std::size_t j = items[k];
-            if (j >= i) break;  // index order within a cell: only earlier particles
-            if (found && j >= found->earlier) break;
-            Eigen::Vector3d d = particles[j].position - p.position;
-            bool wrapped = false;
-            for (int a = 0; a < 3; ++a) {
-              if (!periodic[a]) continue;
-              const double shift = period[a] * std::round(d[a] / period[a]);
-              wrapped = wrapped || shift != 0.0;
-              d[a] -= shift;
-            }
-            const double smaller = std::min(p.radius, particles[j].radius);
-            const double overlap = p.radius + particles[j].radius - d.norm();
-            if (overlap > max_fraction * smaller) {
-              found = InitialOverlap{i, j, overlap / smaller, wrapped};
-              break;
-            }
+  }
+}
+
+/// The overlap of particle @p i with an earlier particle deeper than @p max_fraction of the
+/// smaller radius, with the smallest earlier index, or none.
+std::optional<InitialOverlap> overlap_with_earlier(const std::vector<ParticleSpec>& particles,
+                                                   const SpecGrid& grid, std::size_t i,
+                                                   double max_fraction) {
+  const ParticleSpec& p = particles[i];
+  std::array<std::array<std::size_t, 3>, 3> visit{};
+  std::array<std::size_t, 3> visits{};
+  neighbor_cells(grid, grid.home(i), visit, visits);
+  std::optional<InitialOverlap> found;
+  for (std::size_t vz = 0; vz < visits[2]; ++vz) {
+    for (std::size_t vy = 0; vy < visits[1]; ++vy) {
+      for (std::size_t vx = 0; vx < visits[0]; ++vx) {
+        const std::size_t cell =
+            (visit[2][vz] * grid.cells[1] + visit[1][vy]) * grid.cells[0] + visit[0][vx];
+        for (std::size_t k = grid.begin[cell]; k < grid.begin[cell + 1]; ++k) {
+          const std::size_t j = grid.items[k];
+          if (j >= i) break;  // index order within a cell: only earlier particles
+          if (found && j >= found->earlier) break;
+          Eigen::Vector3d d = particles[j].position - p.position;
+          bool wrapped = false;
+          for (int a = 0; a < 3; ++a) {
+            if (!grid.periodic[a]) continue;
+            const double shift = grid.period[a] * std::round(d[a] / grid.period[a]);
+            wrapped = wrapped || shift != 0.0;
+            d[a] -= shift;
+          }
+          const double smaller = std::min(p.radius, particles[j].radius);
+          const double overlap = p.radius + particles[j].radius - d.norm();
+          if (overlap > max_fraction * smaller) {
+            found = InitialOverlap{i, j, overlap / smaller, wrapped};
+            break;
           }
         }
       }
     }
-    if (found) return found;
+  }
+  return found;
+}
+
+}  // namespace
+
+std::optional<InitialOverlap> find_initial_overlap(const std::vector<ParticleSpec>& particles,
+                                                   const Domain* domain, double max_fraction) {
+  if (particles.size() < 2) return std::nullopt;
+  const SpecGrid grid = bin_specs(particles, domain);
+  for (std::size_t i = 0; i < particles.size(); ++i) {
+    if (auto found = overlap_with_earlier(particles, grid, i, max_fraction)) return found;
   }
   return std::nullopt;
 }
