@@ -114,56 +114,55 @@ LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* 
   return deposit_laser_heat(x, y, z, radius, n, laser, time, heat_rate, scratch, periods);
 }
 
-LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* z,
-                                const double* radius, std::size_t n, const Laser& laser,
-                                double time, double* heat_rate, LaserScratch& scratch,
-                                LaserPeriods periods) {
-  check_beam(laser);
-  if (!(periods.x >= 0.0) || !(periods.y >= 0.0)) {
-    throw std::invalid_argument("laser periods must be non-negative (0: not periodic)");
-  }
-  const std::optional<Eigen::Vector2d> centre = beam_centre(laser, time);
-  if (!centre) return {};
-  const double w = laser.spot_radius;
-  const double half = kWindowHalfWidths * w;
+namespace {
 
-  // Particle images whose disc reaches into the window, in index order (then image order) so ties
-  // go to the smaller index. Coordinates are taken relative to the beam centre so column geometry
-  // keeps full precision.
+/// Particle images whose disc reaches into the window of half-width @p half around @p centre, into
+/// scratch.candidates in index order (then image order) so that ties go to the smaller index;
+/// coordinates relative to the beam centre keep the column geometry at full precision. Returns the
+/// smallest radius among them (infinite when none).
+double collect_candidates(const double* x, const double* y, const double* radius, std::size_t n,
+                          const Eigen::Vector2d& centre, double half, LaserPeriods periods,
+                          LaserScratch& scratch) {
   std::vector<LaserScratch::Candidate>& candidates = scratch.candidates;
   candidates.clear();
   double r_min = std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < n; ++i) {
     const double r = radius[i];
     if (!(r > 0.0)) continue;
-    const auto [x_first, x_last] = images_in_window(x[i] - centre->x(), half + r, periods.x);
-    const auto [y_first, y_last] = images_in_window(y[i] - centre->y(), half + r, periods.y);
+    const auto [x_first, x_last] = images_in_window(x[i] - centre.x(), half + r, periods.x);
+    const auto [y_first, y_last] = images_in_window(y[i] - centre.y(), half + r, periods.y);
     for (double ky = y_first; ky <= y_last; ++ky) {
       for (double kx = x_first; kx <= x_last; ++kx) {
         candidates.push_back(
-            {i, x[i] - centre->x() + kx * periods.x, y[i] - centre->y() + ky * periods.y});
+            {i, x[i] - centre.x() + kx * periods.x, y[i] - centre.y() + ky * periods.y});
         r_min = std::min(r_min, r);
       }
     }
   }
+  return r_min;
+}
 
-  // Columns resolve both the beam (w / 8) and the smallest visible particle (r_min / 6: against a
-  // fine-grid oracle one particle's share is then within about 0.02 P; r_min / 3 gave 0.07 P).
-  // The count is rounded up so that they tile the window exactly.
+/// Columns per side: they resolve both the beam (w / 8) and the smallest visible particle
+/// (r_min / 6: against a fine-grid oracle one particle's share is then within about 0.02 P;
+/// r_min / 3 gave 0.07 P), rounded up so that they tile the window exactly.
+std::size_t column_count(double w, double half, double r_min) {
   const double target = std::min(w / 8.0, r_min / 6.0);
   const double wanted = std::ceil(2.0 * half / target);
-  const std::size_t columns = wanted >= static_cast<double>(kMaxColumnsPerSide)
-                                  ? kMaxColumnsPerSide
-                                  : std::max<std::size_t>(1, static_cast<std::size_t>(wanted));
-  const double h = 2.0 * half / static_cast<double>(columns);
+  return wanted >= static_cast<double>(kMaxColumnsPerSide)
+             ? kMaxColumnsPerSide
+             : std::max<std::size_t>(1, static_cast<std::size_t>(wanted));
+}
 
-  // Highest sphere surface over each column centre, splatted particle by particle.
+/// Highest sphere surface over each column centre, splatted candidate by candidate, into
+/// scratch.top with the owning candidate in scratch.owner.
+void splat_tops(const double* z, const double* radius, double half, double h, std::size_t columns,
+                LaserScratch& scratch) {
   std::vector<double>& top = scratch.top;
   std::vector<std::size_t>& owner = scratch.owner;
   top.assign(columns * columns, -std::numeric_limits<double>::infinity());
   owner.assign(columns * columns, kNoOwner);
-  for (std::size_t slot = 0; slot < candidates.size(); ++slot) {
-    const auto [i, px, py] = candidates[slot];
+  for (std::size_t slot = 0; slot < scratch.candidates.size(); ++slot) {
+    const auto [i, px, py] = scratch.candidates[slot];
     const double r = radius[i];
     const double r2 = r * r;
     const auto [col_first, col_last] = columns_in(px - r, px + r, h, half, columns);
@@ -184,18 +183,21 @@ LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* 
       }
     }
   }
+}
 
-  // A column's share is its rectangle's beam_fraction, factored as (x strip) x (y strip).
+/// Each column's share of @p absorbed_power (its rectangle's beam_fraction, factored as x strip
+/// times y strip) to its owner's heat_rate, or to the missed power.
+LaserDeposit share_power(double absorbed_power, double half, double h, double w,
+                         std::size_t columns, LaserScratch& scratch, double* heat_rate) {
   const std::vector<double> fraction = strip_fractions(columns, h, half, w);
-  const double absorbed_power = laser.absorptivity * laser.power;
   std::vector<double>& gained = scratch.gained;
-  gained.assign(candidates.size(), 0.0);
+  gained.assign(scratch.candidates.size(), 0.0);
   LaserDeposit deposit;
   for (std::size_t row = 0; row < columns; ++row) {
     const double row_power = absorbed_power * fraction[row];
     for (std::size_t col = 0; col < columns; ++col) {
       const double share = row_power * fraction[col];
-      const std::size_t slot = owner[row * columns + col];
+      const std::size_t slot = scratch.owner[row * columns + col];
       if (slot == kNoOwner) {
         deposit.missed += share;
       } else {
@@ -204,10 +206,31 @@ LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* 
       }
     }
   }
-  for (std::size_t slot = 0; slot < candidates.size(); ++slot) {
-    heat_rate[candidates[slot].index] += gained[slot];
+  for (std::size_t slot = 0; slot < scratch.candidates.size(); ++slot) {
+    heat_rate[scratch.candidates[slot].index] += gained[slot];
   }
   return deposit;
+}
+
+}  // namespace
+
+LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* z,
+                                const double* radius, std::size_t n, const Laser& laser,
+                                double time, double* heat_rate, LaserScratch& scratch,
+                                LaserPeriods periods) {
+  check_beam(laser);
+  if (!(periods.x >= 0.0) || !(periods.y >= 0.0)) {
+    throw std::invalid_argument("laser periods must be non-negative (0: not periodic)");
+  }
+  const std::optional<Eigen::Vector2d> centre = beam_centre(laser, time);
+  if (!centre) return {};
+  const double w = laser.spot_radius;
+  const double half = kWindowHalfWidths * w;
+  const double r_min = collect_candidates(x, y, radius, n, *centre, half, periods, scratch);
+  const std::size_t columns = column_count(w, half, r_min);
+  const double h = 2.0 * half / static_cast<double>(columns);
+  splat_tops(z, radius, half, h, columns, scratch);
+  return share_power(laser.absorptivity * laser.power, half, h, w, columns, scratch, heat_rate);
 }
 
 }  // namespace bondem
