@@ -325,7 +325,11 @@ void write_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
   file.commit();
 }
 
-Checkpoint read_checkpoint(const std::string& path) {
+namespace {
+
+/// The payload of the checkpoint file at @p path, after checking that it is a regular file, its
+/// magic, its version, its size against the header and its checksum.
+std::string checked_payload(const std::string& path) {
   // A directory opens as a stream on Linux and reports an absurd size: refuse it by its type.
   std::error_code error;
   const std::filesystem::file_status status = std::filesystem::status(path, error);
@@ -366,7 +370,13 @@ Checkpoint read_checkpoint(const std::string& path) {
   if (checksum != fnv1a(bytes.data(), bytes.size())) {
     throw CheckpointError(path + ": checksum mismatch, the checkpoint is corrupt");
   }
+  return bytes;
+}
 
+}  // namespace
+
+Checkpoint read_checkpoint(const std::string& path) {
+  const std::string bytes = checked_payload(path);
   Reader r(bytes, path);
   Checkpoint c;
   StepperState& s = c.stepper;
