@@ -1184,6 +1184,7 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
   }
 
   read_bond(reader, root, c);
+  c.normal_law = BondLawSpec{c.bond.alpha};
   read_time(reader, root, c);
   if (const YAML::Node gravity = root["gravity"]) c.gravity = reader.vector3(gravity, "gravity");
 
