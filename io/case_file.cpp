@@ -10,6 +10,7 @@
 #include <limits>
 #include <map>
 #include <sstream>
+#include <variant>
 
 #include "solver/analysis/packing.hpp"
 #include "solver/setup/insertion.hpp"
@@ -869,11 +870,35 @@ void read_materials(const Reader& reader, const YAML::Node& root, Case& c) {
   }
 }
 
-/// `contact:`: damping ratio, sliding and rolling friction.
+/// `contact:`: normal-force law, damping ratio, sliding and rolling friction. The law is the Hertz
+/// (+ bond) law unless `normal_law: hooke`, which needs `stiffness` and has no adhesion.
 void read_contact(const Reader& reader, const YAML::Node& root, Case& c) {
   const YAML::Node contact = reader.require(root, "", "contact");
   reader.expect_map(contact, "contact");
-  reader.check_keys(contact, "contact", {"damping_ratio", "friction", "rolling_friction"});
+  reader.check_keys(contact, "contact",
+                    {"normal_law", "stiffness", "damping_ratio", "friction", "rolling_friction"});
+  const YAML::Node stiffness = contact["stiffness"];
+  std::string law = "hertz";
+  if (const YAML::Node name = contact["normal_law"]) {
+    law = reader.text(name, "contact.normal_law");
+    if (law != "hertz" && law != "hooke") {
+      reader.fail(name, "contact.normal_law",
+                  "unknown normal law '" + law + "' (expected hertz or hooke)");
+    }
+  }
+  if (law == "hooke") {
+    if (!stiffness) {
+      reader.fail(contact, "contact.stiffness",
+                  "missing required key (the spring stiffness of normal_law hooke)");
+    }
+    if (const YAML::Node bond = root["bond"]) {
+      reader.fail(bond, "bond", "contact.normal_law hooke has no adhesion: a bond never forms");
+    }
+    c.normal_law = HookeLawSpec{reader.positive(stiffness, "contact.stiffness")};
+  } else if (stiffness) {
+    reader.fail(stiffness, "contact.stiffness",
+                "only with normal_law hooke (the Hertz stiffness follows from the materials)");
+  }
   if (const YAML::Node mu = contact["friction"]) {
     c.friction = reader.non_negative(mu, "contact.friction");
   }
@@ -1184,6 +1209,7 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
   }
 
   read_bond(reader, root, c);
+  if (std::holds_alternative<BondLawSpec>(c.normal_law)) c.normal_law = BondLawSpec{c.bond.alpha};
   read_time(reader, root, c);
   if (const YAML::Node gravity = root["gravity"]) c.gravity = reader.vector3(gravity, "gravity");
 

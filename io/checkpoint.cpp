@@ -165,6 +165,15 @@ void write_canonical(const Case& c, CanonicalText& t) {
   t.add("case.bond.damping_ratio", c.bond.damping_ratio);
   t.add("case.bond.criterion", static_cast<int>(c.bond.criterion));
   t.add("case.bond.temperature", c.bond.temperature);
+  // The law by its place in NormalLawSpec and every parameter it declares.
+  t.add("case.normal_law", static_cast<int>(c.normal_law.index()));
+  std::visit(
+      [&](const auto& law) {
+        law.parameters([&](const char* name, const auto& value) {
+          t.add("case.normal_law." + std::string(name), value);
+        });
+      },
+      c.normal_law);
   t.add("case.time_step", c.time_step);
   t.add("case.gravity", c.gravity);
   for (std::size_t k = 0; k < c.particles.size(); ++k) {

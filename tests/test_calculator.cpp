@@ -42,6 +42,7 @@ TEST(Calculator, CriticalVelocityAgainstDensityTable) {
 TEST(Calculator, StiffnessAndEquilibriumOverlapAreInverse) {
   Case c = paper_case();
   c.bond.alpha = 0.7;
+  c.normal_law = BondLawSpec{0.7};
   c.bond.input = AdhesionInput::kStiffness;
   c.bond.stiffness = 3.0e3;
   const PairReport from_k = compute_pair_report(c, 0, 1e-3, 0, 2e-3, 1.0);
@@ -110,6 +111,7 @@ TEST(Calculator, NoBondingNoBondQuantitiesInTheRule) {
 TEST(Calculator, RejectsUnstableExponent) {
   Case c = paper_case();
   c.bond.alpha = 1.5;
+  c.normal_law = BondLawSpec{1.5};
   EXPECT_THROW(compute_pair_report(c, 0, 1e-3, 0, 1e-3, 1.0), std::invalid_argument);
 }
 

@@ -529,6 +529,7 @@ Stack stack_on_floor(double t_bottom, double t_top) {
   c.bond.criterion = BondCriterion::kTemperature;
   c.bond.temperature = 800.0;
   c.bond.alpha = 0.0;
+  c.normal_law = BondLawSpec{0.0};
   c.bond.equilibrium_overlap = 1e-5;
   c.bond.damping_ratio = 0.5;
   const Material& m = c.materials[0];
@@ -684,6 +685,7 @@ TEST(ThermalDeterminism, SameBytesAtOneAndTwoThreads) {
   c.bond.criterion = BondCriterion::kTemperature;
   c.bond.temperature = 1200.0;
   c.bond.alpha = 0.0;
+  c.normal_law = BondLawSpec{0.0};
   c.bond.damping_ratio = 1.0;
   c.thermal->initial_temperature = 1100.0;
   c.thermal->ambient_temperature = 353.0;

@@ -2,8 +2,11 @@
 
 #include <algorithm>
 #include <numbers>
+#include <stdexcept>
+#include <variant>
 
 #include "solver/models/heat_law.hpp"
+#include "solver/setup/message_number.hpp"
 
 namespace bondem {
 
@@ -29,7 +32,14 @@ PairCoefficients Case::pair_coefficients(int a, int b) const {
 }
 
 NormalLawSpec normal_law_of(const Case& description) {
-  return BondLawSpec{description.bond.alpha};
+  if (const auto* bond = std::get_if<BondLawSpec>(&description.normal_law);
+      bond != nullptr && !(bond->alpha == description.bond.alpha)) {
+    throw std::invalid_argument(description.source + ": the bond law's alpha (" +
+                                message_number(bond->alpha) + ") differs from bond.alpha (" +
+                                message_number(description.bond.alpha) +
+                                "): set both (Case::normal_law and Case::bond)");
+  }
+  return description.normal_law;
 }
 
 Scene build_scene(const Case& description) {

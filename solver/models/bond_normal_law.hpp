@@ -15,6 +15,12 @@ namespace bondem {
 /// Run-wide parameters of the bond law beyond the material pairs' (the `bond:` block).
 struct BondLawSpec {
   double alpha = 1.0;  ///< adhesion exponent alpha_adh
+
+  /// Calls @p visit(name, value) for each parameter (the case fingerprint covers them all).
+  template <class Visit>
+  void parameters(Visit&& visit) const {
+    visit("alpha", alpha);
+  }
 };
 
 /// Hertz contact (eq. 26) and, past delta_crit where the criterion holds, the bond (eq. 15, 22-25).

@@ -10,11 +10,12 @@
 #include <variant>
 
 #include "solver/models/bond_normal_law.hpp"
+#include "solver/models/hooke_law.hpp"
 
 namespace bondem {
 
 /// The normal-force law of a run with its run-wide parameters: one alternative per law.
-using NormalLawSpec = std::variant<BondLawSpec>;
+using NormalLawSpec = std::variant<BondLawSpec, HookeLawSpec>;
 
 namespace detail {
 template <class... Ts>
@@ -36,6 +37,7 @@ decltype(auto) with_normal_law(const NormalLawSpec& spec, Visit&& visit) {
             return bond.alpha == 1.0 ? visit(BondNormalLaw<LinearAdhesion>{})
                                      : visit(BondNormalLaw<GeneralAdhesion>{{bond.alpha}});
           },
+          [&](const HookeLawSpec& hooke) { return visit(HookeNormalLaw{hooke.stiffness}); },
       },
       spec);
 }

@@ -15,6 +15,7 @@
 #include "solver/analysis/layer_metrics.hpp"
 #include "solver/engine/laser.hpp"
 #include "solver/models/bond_law.hpp"
+#include "solver/models/normal_laws.hpp"
 #include "solver/models/pair.hpp"
 
 namespace bondem {
@@ -76,6 +77,10 @@ struct Case {
   double friction = 0.0;          ///< Coulomb sliding friction mu (pairs and walls)
   double rolling_friction = 0.0;  ///< rolling resistance mu_r (pairs and walls)
   BondModel bond;
+  /// The normal-force law and its run-wide parameters. The bond law's alpha must equal
+  /// bond.alpha (the pair coefficients use that one): the reader sets both, and normal_law_of()
+  /// refuses a case built in code that sets only one.
+  NormalLawSpec normal_law = BondLawSpec{};
   double time_step = 0.0;  ///< [s]
   double end_time = 0.0;   ///< [s]
   Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
