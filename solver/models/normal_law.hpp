@@ -11,8 +11,10 @@
 ///   double surface_force(const Pair&, double overlap, double overlap_rate)  f . n_ij, never bonds
 ///   double friction_load(const Pair&, const NormalForce&, double overlap)  load for Coulomb
 ///   double surface_friction_load(double surface_force)
-///   static NormalTimeScales time_scales(const PairCoefficients&, double r_star, double m_star,
-///                                       double impact_speed, bool bonding)
+///   NormalTimeScales time_scales(const PairCoefficients&, double r_star, double m_star,
+///                                double impact_speed, bool bonding) const  (or static)
+/// and its Spec (the run-wide parameters held in Case::normal_law) lists them for the case
+/// fingerprint: template <class F> void parameters(F&& f) const, calling f("name", value).
 /// Forces follow bond_law.hpp's convention: the component along n_ij (from i to j) of the force on
 /// i, negative for repulsion.
 

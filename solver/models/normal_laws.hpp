@@ -3,9 +3,9 @@
 /// The registry of normal-force laws: the one place that maps a run's choice to a compiled law.
 ///
 /// To add a law (see CONTRIBUTING.md): write its header (the law object of normal_law.hpp and its
-/// Spec of run-wide parameters), add the Spec to NormalLawSpec and one line to with_normal_law
-/// below, and read it in io/case_file.cpp. The kernels, the stepper and the time-step rule need no
-/// change: they are written once against the law object.
+/// Spec of run-wide parameters with parameters()), add the Spec to NormalLawSpec and one line to
+/// with_normal_law below, and read it in io/case_file.cpp. The kernels, the stepper and the
+/// time-step rule need no change: they are written once against the law object.
 
 #include <variant>
 
