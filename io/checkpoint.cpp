@@ -141,9 +141,8 @@ bool restart_may_change(const std::string& key) {
   return key == "time.end" || key == "output" || key.rfind("output.", 0) == 0;
 }
 
-/// Write the canonical text of case @p c into @p t (canonical_case_text() says what it holds).
-void write_canonical(const Case& c, CanonicalText& t) {
-  // The resolved case, defaults included: what a case built in code has too.
+/// Materials, the contact and bond laws, the time step and gravity.
+void write_canonical_laws(const Case& c, CanonicalText& t) {
   for (std::size_t k = 0; k < c.materials.size(); ++k) {
     const Material& m = c.materials[k];
     const std::string key = "case.materials." + std::to_string(k);
@@ -176,6 +175,10 @@ void write_canonical(const Case& c, CanonicalText& t) {
       c.normal_law);
   t.add("case.time_step", c.time_step);
   t.add("case.gravity", c.gravity);
+}
+
+/// Every particle, exactly.
+void write_canonical_particles(const Case& c, CanonicalText& t) {
   for (std::size_t k = 0; k < c.particles.size(); ++k) {
     const ParticleSpec& p = c.particles[k];
     const std::string key = "case.particles." + std::to_string(k);
@@ -185,6 +188,10 @@ void write_canonical(const Case& c, CanonicalText& t) {
     t.add(key + ".velocity", p.velocity);
     t.add(key + ".temperature", p.temperature);
   }
+}
+
+/// The domain, the walls and the tools with their shapes and motions.
+void write_canonical_boundaries(const Case& c, CanonicalText& t) {
   if (c.domain) {
     t.add("case.domain.min", c.domain->min);
     t.add("case.domain.max", c.domain->max);
@@ -221,6 +228,10 @@ void write_canonical(const Case& c, CanonicalText& t) {
       t.add(key + ".motion." + std::to_string(m) + ".velocity", b.motion[m].velocity);
     }
   }
+}
+
+/// Neighbor settings, the thermal model, the laser and the analysis regions.
+void write_canonical_settings(const Case& c, CanonicalText& t) {
   t.add("case.skin", c.skin);
   t.add("case.reorder_interval", c.reorder_interval);
   t.add("case.max_overlap_fraction", c.max_overlap_fraction);
@@ -257,6 +268,16 @@ void write_canonical(const Case& c, CanonicalText& t) {
     }
     t.add("case.analysis.layer.bins", r.bins);
   }
+}
+
+/// Write the canonical text of case @p c into @p t (canonical_case_text() says what it holds):
+/// the resolved case, defaults included (what a case built in code has too), then every value
+/// the case-file reader read.
+void write_canonical(const Case& c, CanonicalText& t) {
+  write_canonical_laws(c, t);
+  write_canonical_particles(c, t);
+  write_canonical_boundaries(c, t);
+  write_canonical_settings(c, t);
   // Everything the case-file reader read, whatever the lines above may miss.
   for (const auto& [key, value] : c.settings) {
     if (!restart_may_change(key)) t.add("file." + key, std::string_view(value));
