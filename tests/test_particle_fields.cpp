@@ -164,5 +164,21 @@ TEST(ParticleFields, CheckpointKeepsEveryCheckpointedFieldExactly) {
   }
 }
 
+// The displacement moves with its particle and is checkpointed (a restart continues it), is not
+// part of the last-good state (a final-state file has no column for it), and is one VTK vector.
+TEST(ParticleFields, DisplacementIsReorderedCheckpointedAndAVtkVector) {
+  int component = 0;
+  for (const char* name : {"dx", "dy", "dz"}) {
+    const ParticleField* field =
+        std::find_if(std::begin(kParticleFields), std::end(kParticleFields),
+                     [&](const ParticleField& f) { return f.name == name; });
+    ASSERT_NE(field, std::end(kParticleFields)) << name;
+    EXPECT_TRUE(has(*field, kReordered | kCheckpointed)) << name;
+    EXPECT_FALSE(has(*field, kLastGood) || has(*field, kThermal) || has(*field, kPerWall)) << name;
+    EXPECT_EQ(field->vtk_name, "displacement") << name;
+    EXPECT_EQ(field->vtk_component, component++) << name;
+  }
+}
+
 }  // namespace
 }  // namespace bondem

@@ -375,10 +375,11 @@ TEST_F(VtkOutput, ParticleArraysFollowTheFieldTable) {
   const VtpContents file = read_vtp((root_ / "vtk" / "particles_000000.vtp").string());
   std::vector<std::string> names;
   for (const VtpArray& array : file.point_arrays) names.push_back(array.name);
-  const std::vector<std::string> expected = {"id",         "radius",           "velocity",
-                                             "force",      "material",         "coordination",
-                                             "bond_count", "temperature",      "peak_temperature",
-                                             "heat_rate",  "angular_velocity", "torque"};
+  const std::vector<std::string> expected = {"id",          "radius",           "velocity",
+                                             "force",       "material",         "coordination",
+                                             "bond_count",  "temperature",      "peak_temperature",
+                                             "heat_rate",   "angular_velocity", "torque",
+                                             "displacement"};
   EXPECT_EQ(names, expected);
   EXPECT_EQ(file.point_array("torque")->components, 3);
   EXPECT_EQ(file.point_array("heat_rate")->values[4], p.heat_rate[4]);

@@ -38,6 +38,9 @@ struct Particles {
   std::vector<double> radius, mass;
   std::vector<double> wx, wy, wz;  ///< angular velocity [rad/s]
   std::vector<double> tx, ty, tz;  ///< torque [N m]
+  /// Displacement since the particle entered the run [m], summed from the drift's own position
+  /// increments: x - x0 up to rounding, and not wrapped across periodic boundaries.
+  std::vector<double> dx, dy, dz;
   /// Tangential spring elongation against each wall, 3 values per wall, wall_count() per particle.
   std::vector<double> wall_slip;
   int walls = 0;  ///< walls with a slot in wall_slip
@@ -135,6 +138,9 @@ inline constexpr ParticleField kParticleFields[] = {
     {"tx", &Particles::tx, kReordered | kCheckpointed, "torque", 0, 22},
     {"ty", &Particles::ty, kReordered | kCheckpointed, "torque", 1, 22},
     {"tz", &Particles::tz, kReordered | kCheckpointed, "torque", 2, 22},
+    {"dx", &Particles::dx, kReordered | kCheckpointed, "displacement", 0, 23},
+    {"dy", &Particles::dy, kReordered | kCheckpointed, "displacement", 1, 23},
+    {"dz", &Particles::dz, kReordered | kCheckpointed, "displacement", 2, 23},
     {"wall_slip", &Particles::wall_slip, kReordered | kCheckpointed | kPerWall},
     {"temperature", &Particles::temperature, kReordered | kCheckpointed | kThermal, "temperature",
      -1, 11},

@@ -190,9 +190,17 @@ void Stepper::drift(double dt) {
     p.vx[i] += kick * p.fx[i];
     p.vy[i] += kick * p.fy[i];
     p.vz[i] += kick * p.fz[i];
-    p.x[i] += dt * p.vx[i];
-    p.y[i] += dt * p.vy[i];
-    p.z[i] += dt * p.vz[i];
+    // The displacement gets the very increment the position gets, so it stays x - x0 up to
+    // rounding and does not jump when the list wraps a coordinate across a periodic boundary.
+    const double step_x = dt * p.vx[i];
+    const double step_y = dt * p.vy[i];
+    const double step_z = dt * p.vz[i];
+    p.x[i] += step_x;
+    p.y[i] += step_y;
+    p.z[i] += step_z;
+    p.dx[i] += step_x;
+    p.dy[i] += step_y;
+    p.dz[i] += step_z;
   }
   if (scene_.friction) kick_spin(half_dt);
   // Two particles moving toward each other close the gap by twice the largest displacement:
