@@ -461,6 +461,13 @@ Checkpoint read_checkpoint(const std::string& path) {
   if (r.get<std::uint8_t>() != 0) get_section(CheckpointSection::kThermal, 1);
   c.history = r.get_text();
   if (!r.at_end()) r.fail("trailing bytes");
+  // A field the table does not checkpoint restarts from zero, sized like the others, so that it
+  // is never an empty array the stepper writes past.
+  for (const ParticleField& field : kParticleFields) {
+    if (has(field, kCheckpointed) || (has(field, kThermal) && !p.thermal())) continue;
+    const std::size_t width = has(field, kPerWall) ? 3 * static_cast<std::size_t>(p.walls) : 1;
+    std::visit([&](auto member) { (p.*member).assign(n * width, {}); }, field.member);
+  }
   return c;
 }
 
