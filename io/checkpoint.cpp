@@ -394,7 +394,7 @@ std::string checked_payload(const std::string& path) {
                           " bytes, expected " +
                           std::to_string(header + size + sizeof(std::uint64_t)) + ")");
   }
-  const std::string bytes = file.substr(header, size);
+  std::string bytes = file.substr(header, size);
   std::uint64_t checksum = 0;
   std::memcpy(&checksum, file.data() + header + size, sizeof checksum);
   if (checksum != fnv1a(bytes.data(), bytes.size())) {
