@@ -20,11 +20,18 @@ inline std::string file_bytes(const std::filesystem::path& path) {
   return buffer.str();
 }
 
-/// An empty output directory bondem_<name> under the test temporary directory; names must be
-/// unique across test files, which ctest runs in parallel.
+/// Where tests write: `tmp/` in the build tree (BONDEM_TEST_TMPDIR), so that two build trees
+/// testing at once on one machine never share a directory.
+inline std::filesystem::path test_root() {
+  const std::filesystem::path root(BONDEM_TEST_TMPDIR);
+  std::filesystem::create_directories(root);
+  return root;
+}
+
+/// An empty output directory bondem_<name> under test_root(); names must be unique across test
+/// files, which ctest runs in parallel.
 inline std::filesystem::path fresh_directory(const std::string& name) {
-  const std::filesystem::path directory =
-      std::filesystem::path(::testing::TempDir()) / ("bondem_" + name);
+  const std::filesystem::path directory = test_root() / ("bondem_" + name);
   std::filesystem::remove_all(directory);
   return directory;
 }

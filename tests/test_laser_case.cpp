@@ -41,8 +41,7 @@ std::vector<Row> read_final_state(const std::filesystem::path& path) {
 TEST(LaserCase, CiVariantBondsAlongTheTrackOnly) {
   const Case c = load_case(BONDEM_CASES_DIR "/laser_sintering_ci.yaml");
   ASSERT_TRUE(c.laser && c.thermal);
-  const std::filesystem::path directory =
-      std::filesystem::path(::testing::TempDir()) / "bondem_laser_ci";
+  const std::filesystem::path directory = testing::test_root() / "bondem_laser_ci";
   const RunResult r = testing::quiet_run(c, directory);
   ASSERT_TRUE(r.thermal.has_value());
   const ThermalReport& t = *r.thermal;

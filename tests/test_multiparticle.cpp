@@ -20,7 +20,7 @@ namespace {
 
 /// Runs @p c with @p threads threads into a fresh directory; returns final_state.csv's bytes.
 std::string final_state_with(const Case& c, int threads, const std::string& name) {
-  const auto directory = std::filesystem::path(::testing::TempDir()) / name;
+  const auto directory = testing::test_root() / name;
   std::filesystem::remove_all(directory);
   const int saved = omp_get_max_threads();
   omp_set_num_threads(threads);

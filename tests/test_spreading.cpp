@@ -15,8 +15,7 @@ namespace {
 
 TEST(Spreading, CiVariantLeavesAPlausibleLayer) {
   const Case c = load_case(BONDEM_CASES_DIR "/powder_spreading_ci.yaml");
-  const std::filesystem::path directory =
-      std::filesystem::path(::testing::TempDir()) / "bondem_spreading_ci";
+  const std::filesystem::path directory = testing::test_root() / "bondem_spreading_ci";
   const RunResult r = testing::quiet_run(c, directory);
   ASSERT_TRUE(r.layer.has_value());
   const LayerMetrics& layer = *r.layer;
