@@ -36,8 +36,8 @@ inline HookePair make_hooke_pair(double k, double m_star, double xi) {
 
 /// Phase pi - theta of the damped oscillation at which the clamped force of an impact with damping
 /// ratio 0 <= @p xi < 1 reaches zero and the pair separates: theta = atan2(2 xi s, 1 - 2 xi^2),
-/// s = sqrt(1 - xi^2) (Schwager & Poeschel, "Coefficient of restitution and linear-dashpot model revisited",
-/// Granular Matter 9, 465, 2007).
+/// s = sqrt(1 - xi^2) (Schwager & Poeschel, "Coefficient of restitution and linear-dashpot model
+/// revisited", Granular Matter 9, 465, 2007).
 inline double hooke_separation_phase(double xi) {
   const double s = std::sqrt(1.0 - xi * xi);
   return std::numbers::pi - std::atan2(2.0 * xi * s, 1.0 - 2.0 * xi * xi);
