@@ -14,18 +14,18 @@
 /// so e = -x' at separation depends on xi alone, not on the speed, size or modulus.
 ///
 /// Exact mapping onto the linear law (Antypov & Elliott, "On an analytical solution for the damped
-/// Hertzian spring", EPL 94, 50004, 2011; generalised by Feng, arXiv:2603.27764, 2026): with
+/// Hertzian spring", EPL, 2011; generalised by Feng, arXiv:2603.27764, 2026): with
 /// x = (5/4)^(2/5) y^(4/5) the phase-plane equation v dv/dx of the Hertz impact becomes
 ///   v dv/dy = -y - 2 zeta v,  zeta = sqrt(6/5) xi,
 /// which is the linear spring-dashpot's (x'' = -x - 2 zeta x') with the same initial state
-/// (y = 0, v = 1). The sign rule maps too: the Hertz total force is dx/dy > 0 times y + 2 zeta v,
-/// so both laws release the pair at the same point of the common phase portrait, after which v
-/// is constant. Hence, exactly, e_hertz(xi) = e_hooke(sqrt(6/5) xi) with the clamped linear
-/// restitution of Schwager & Poeschel ("Coefficient of restitution and linear-dashpot model
-/// revisited", Granular Matter 9, 465, 2007); the same release-at-zero-force rule
-/// for viscoelastic spheres is Schwager & Poeschel, Phys. Rev. E 78, 051304, 2008. Measured against
-/// a direct RK4 integration of the dimensional Hertz impact at 0.1 to 5 m/s
-/// (tests/test_restitution.cpp): agreement to 1e-10, the integration's own error.
+/// (y = 0, v = 1). The sign rule maps too: the Hertz total force is (y + 2 zeta v) / (dx/dy) with
+/// dx/dy > 0, the linear one's divided by a positive factor, so both laws release the pair at the
+/// same point of the common phase portrait, after which v is constant. Hence, exactly, e_hertz(xi)
+/// = e_hooke(sqrt(6/5) xi) with the clamped linear restitution of Schwager & Poeschel ("Coefficient
+/// of restitution and linear-dashpot model revisited", Granular Matter 9, 465, 2007); the same
+/// release-at-zero-force rule for viscoelastic spheres is Schwager & Poeschel, Phys. Rev. E 78,
+/// 051304, 2008. Measured against a direct RK4 integration of the dimensional Hertz impact at 0.1
+/// to 5 m/s (tests/test_restitution.cpp): agreement to 1e-10, the integration's own error.
 ///
 /// What the clamp changes: the formula of LIGGGHTS and Yade, xi = sqrt(5/6) (-ln e) /
 /// sqrt(ln^2 e + pi^2), is exact for the attracting (unclamped) damper, which ends the contact at
@@ -60,7 +60,8 @@ inline double clamped_linear_restitution(double xi) {
 
 /// Restitution of the damped, clamped Hertz contact (hertz_contact_force) with damping ratio
 /// @p xi >= 0, whatever the impact speed: the clamped linear restitution at sqrt(6/5) xi (see the
-/// file comment). NaN for xi < 0.
+/// file comment). NaN for xi < 0. (calculator.hpp's hertz_restitution integrates the same impact
+/// with RK4; this closed form can replace it.)
 inline double hertz_contact_restitution(double xi) {
   return clamped_linear_restitution(std::sqrt(6.0 / 5.0) * xi);
 }
