@@ -22,6 +22,7 @@
 #include "solver/engine/stepper.hpp"
 #include "solver/experiments/calculator.hpp"
 #include "solver/experiments/collision.hpp"
+#include "solver/models/contact_laws.hpp"
 
 namespace {
 
@@ -54,6 +55,45 @@ void print_quantity(const std::string& name, double value, const std::string& un
   std::cout << "\n";
 }
 
+/// The contact model of a material pair: damping ratio and restitution (each from the other by
+/// the normal law's relation), friction, rolling resistance and cohesion.
+void print_contact_model(const Case& c, const bondem::PairCoefficients& pair) {
+  const double restitution = bondem::with_normal_law(
+      c.normal_law, [&](const auto& law) { return law.restitution_for(pair.contact_damping); });
+  print_quantity("contact_damping_ratio", pair.contact_damping, "");
+  print_quantity("contact_restitution", restitution, "");
+  std::cout << "# restitution "
+            << (pair.restitution > 0.0 ? "given, damping ratio derived"
+                                       : "derived from the damping ratio")
+            << "\n";
+  print_quantity("friction", pair.friction, "");
+  print_quantity("rolling_friction", pair.rolling_friction, "");
+  std::cout << "rolling_model = "
+            << (pair.rolling_model == bondem::RollingModel::kEpsd ? "epsd" : "constant_torque")
+            << "\n";
+  switch (pair.cohesion) {
+    case bondem::CohesionModel::kNone:
+      std::cout << "cohesion = none\n";
+      break;
+    case bondem::CohesionModel::kSjkr:
+      std::cout << "cohesion = sjkr\n";
+      print_quantity("cohesion_energy_density", pair.cohesion_energy, "J/m^3");
+      break;
+    case bondem::CohesionModel::kJkr:
+      std::cout << "cohesion = jkr\n";
+      print_quantity("surface_energy", pair.cohesion_energy, "J/m^2");
+      break;
+  }
+}
+
+/// JKR quantities of a pair of effective radius @p r_star: pull-off force and separation overlap.
+void print_cohesion_scales(const bondem::PairCoefficients& pair, double r_star) {
+  if (pair.cohesion != bondem::CohesionModel::kJkr) return;
+  print_quantity("jkr_pull_off_force", bondem::jkr_pull_off_force(r_star, pair.cohesion_energy),
+                 "N");
+  print_quantity("jkr_separation_overlap", bondem::separation_overlap(pair, r_star), "m");
+}
+
 int run_info(const std::string& case_path, const std::vector<std::string>& overrides,
              std::optional<double> velocity) {
   const Case c = bondem::load_case(case_path, overrides);
@@ -71,9 +111,15 @@ int run_info(const std::string& case_path, const std::vector<std::string>& overr
             << " particles; reference impact speed: " << reference_source << "\n";
   for (std::size_t a = 0; a < n; ++a) {
     for (std::size_t b = a; b < n; ++b) {
+      const bondem::PairCoefficients pair =
+          c.pair_coefficients(static_cast<int>(a), static_cast<int>(b));
       if (radii[a] == 0.0 || radii[b] == 0.0) {
-        std::cout << "# [" << c.materials[a].name << " " << c.materials[b].name
-                  << "]: no particles of one material, skipped\n";
+        std::cout << "[" << c.materials[a].name << " " << c.materials[b].name << "]\n";
+        print_contact_model(c, pair);
+        // A material without particles meets the others only as a wall or tool: r* = r.
+        const double radius = std::max(radii[a], radii[b]);
+        if (radius > 0.0) print_cohesion_scales(pair, radius);
+        std::cout << "# no particles of one material: the pair's particle quantities skipped\n";
         continue;
       }
       const auto r = bondem::compute_pair_report(c, static_cast<int>(a), radii[a],
@@ -84,12 +130,12 @@ int run_info(const std::string& case_path, const std::vector<std::string>& overr
       print_quantity("effective_modulus", r.effective_modulus, "Pa");
       print_quantity("effective_radius", r.effective_radius, "m");
       print_quantity("effective_mass", r.effective_mass, "kg");
-      print_quantity("contact_damping_ratio", c.contact_damping, "");
-      print_quantity("contact_restitution", r.restitution, "");
+      print_contact_model(c, pair);
+      print_cohesion_scales(pair, r.effective_radius);
       if (r.bonding) {
-        print_quantity("alpha", c.bond.alpha, "");
+        print_quantity("alpha", pair.alpha, "");
         print_quantity("adhesion_stiffness", r.adhesion_stiffness,
-                       c.bond.alpha == 1.0 ? "N/m" : "N/m^" + std::to_string(c.bond.alpha));
+                       pair.alpha == 1.0 ? "N/m" : "N/m^" + std::to_string(pair.alpha));
         print_quantity("equilibrium_overlap", r.equilibrium_overlap, "m");
         print_quantity("critical_overlap", r.critical_overlap, "m");
         print_quantity("critical_velocity", r.critical_velocity, "m/s");

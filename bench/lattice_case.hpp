@@ -12,10 +12,10 @@ inline Scene lattice_scene(int side, int layers, bool friction) {
   Case c;
   c.source = "bench";
   c.materials.push_back({"powder", 2000.0, 1.0e9, 0.3});
-  c.contact_damping = 0.197;
-  c.friction = friction ? 0.5 : 0.0;
-  c.bond.criterion = BondCriterion::kNever;
-  c.bond.equilibrium_overlap = 1e-6;
+  c.contact.damping_ratio = 0.197;
+  c.contact.friction = friction ? 0.5 : 0.0;
+  c.contact.bond.criterion = BondCriterion::kNever;
+  c.contact.bond.equilibrium_overlap = 1e-6;
   c.time_step = 5e-7;
   c.gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
   const double spacing = 0.001999;

@@ -870,13 +870,122 @@ void read_materials(const Reader& reader, const YAML::Node& root, Case& c) {
   }
 }
 
-/// `contact:`: normal-force law, damping ratio, sliding and rolling friction. The law is the Hertz
-/// (+ bond) law unless `normal_law: hooke`, which needs `stiffness` and has no adhesion.
+/// The keys of a contact model: `contact:` holds them all (and the run-wide normal law), an
+/// `interactions:` entry any of them.
+const std::vector<std::string>& contact_model_keys() {
+  static const std::vector<std::string> keys = {
+      "restitution",   "damping_ratio",   "friction", "rolling_friction",
+      "rolling_model", "rolling_damping", "cohesion"};
+  return keys;
+}
+
+/// `cohesion: {model: none | sjkr {energy_density} | jkr {surface_energy}}` at @p path.
+void read_cohesion(const Reader& reader, const Case& c, const YAML::Node& node,
+                   const std::string& path, ContactModel& model) {
+  reader.expect_map(node, path);
+  reader.check_keys(node, path, {"model", "energy_density", "surface_energy"});
+  const YAML::Node name = reader.require(node, path, "model");
+  const std::string kind = reader.text(name, path + ".model");
+  const YAML::Node density = node["energy_density"];
+  const YAML::Node energy = node["surface_energy"];
+  const auto refuse = [&](const YAML::Node& key, const std::string& key_name) {
+    if (key) {
+      reader.fail(key, path + "." + key_name,
+                  "does not belong to cohesion model " + kind +
+                      " (sjkr takes energy_density, jkr surface_energy, none neither)");
+    }
+  };
+  if (kind == "none") {
+    refuse(density, "energy_density");
+    refuse(energy, "surface_energy");
+    model.cohesion = CohesionModel::kNone;
+    model.cohesion_energy = 0.0;
+  } else if (kind == "sjkr") {
+    refuse(energy, "surface_energy");
+    model.cohesion = CohesionModel::kSjkr;
+    model.cohesion_energy =
+        reader.positive(reader.require(node, path, "energy_density"), path + ".energy_density");
+  } else if (kind == "jkr") {
+    refuse(density, "energy_density");
+    if (std::holds_alternative<HookeLawSpec>(c.normal_law)) {
+      reader.fail(name, path + ".model",
+                  "jkr is a Hertz-based theory: it needs the hertz normal law, not hooke");
+    }
+    model.cohesion = CohesionModel::kJkr;
+    model.cohesion_energy =
+        reader.positive(reader.require(node, path, "surface_energy"), path + ".surface_energy");
+  } else {
+    reader.fail(name, path + ".model",
+                "unknown cohesion model '" + kind + "' (expected none, sjkr or jkr)");
+  }
+}
+
+/// The contact-model keys of @p node (at @p path) over @p model: `contact:` itself when
+/// @p defaults (then exactly one of restitution and damping_ratio is required), else an
+/// `interactions:` entry, whose keys override the defaults it starts from.
+void read_contact_model(const Reader& reader, const Case& c, const YAML::Node& node,
+                        const std::string& path, bool defaults, ContactModel& model) {
+  const YAML::Node restitution = node["restitution"];
+  const YAML::Node damping = node["damping_ratio"];
+  if (restitution && damping) {
+    reader.fail(damping, path + ".damping_ratio",
+                "give either restitution or damping_ratio, not both (one sets the other)");
+  }
+  if (defaults && !restitution && !damping) {
+    reader.fail(node, path + ".restitution",
+                "missing required key (restitution or damping_ratio: the contact damping)");
+  }
+  if (damping) {
+    model.damping_ratio = reader.non_negative(damping, path + ".damping_ratio");
+    model.restitution = 0.0;
+  }
+  if (restitution) {
+    const double e = reader.number(restitution, path + ".restitution");
+    if (!(e > 0.0 && e <= 1.0)) {
+      reader.fail(restitution, path + ".restitution",
+                  "must lie in (0, 1], got " + restitution.Scalar());
+    }
+    model.restitution = e;
+    model.damping_ratio = 0.0;
+  }
+  if (const YAML::Node mu = node["friction"]) {
+    model.friction = reader.non_negative(mu, path + ".friction");
+  }
+  if (const YAML::Node mu_r = node["rolling_friction"]) {
+    model.rolling_friction = reader.non_negative(mu_r, path + ".rolling_friction");
+  }
+  if (const YAML::Node rolling = node["rolling_model"]) {
+    const std::string name = reader.text(rolling, path + ".rolling_model");
+    if (name == "constant_torque") {
+      model.rolling_model = RollingModel::kConstantTorque;
+    } else if (name == "epsd") {
+      model.rolling_model = RollingModel::kEpsd;
+    } else {
+      reader.fail(rolling, path + ".rolling_model",
+                  "unknown rolling model '" + name + "' (expected constant_torque or epsd)");
+    }
+  }
+  if (const YAML::Node eta = node["rolling_damping"]) {
+    if (model.rolling_model != RollingModel::kEpsd) {
+      reader.fail(eta, path + ".rolling_damping",
+                  "only with rolling_model epsd (constant_torque has no rolling damper)");
+    }
+    model.rolling_damping = reader.non_negative(eta, path + ".rolling_damping");
+  }
+  if (const YAML::Node cohesion = node["cohesion"]) {
+    read_cohesion(reader, c, cohesion, path + ".cohesion", model);
+  }
+}
+
+/// `contact:`: the run-wide normal-force law and the contact model of every pair of materials.
+/// The law is the Hertz (+ bond) law unless `normal_law: hooke`, which needs `stiffness` and has
+/// no adhesion.
 void read_contact(const Reader& reader, const YAML::Node& root, Case& c) {
   const YAML::Node contact = reader.require(root, "", "contact");
   reader.expect_map(contact, "contact");
-  reader.check_keys(contact, "contact",
-                    {"normal_law", "stiffness", "damping_ratio", "friction", "rolling_friction"});
+  std::vector<std::string> keys = contact_model_keys();
+  keys.insert(keys.begin(), {"normal_law", "stiffness"});
+  reader.check_keys(contact, "contact", keys);
   const YAML::Node stiffness = contact["stiffness"];
   std::string law = "hertz";
   if (const YAML::Node name = contact["normal_law"]) {
@@ -899,14 +1008,7 @@ void read_contact(const Reader& reader, const YAML::Node& root, Case& c) {
     reader.fail(stiffness, "contact.stiffness",
                 "only with normal_law hooke (the Hertz stiffness follows from the materials)");
   }
-  if (const YAML::Node mu = contact["friction"]) {
-    c.friction = reader.non_negative(mu, "contact.friction");
-  }
-  if (const YAML::Node mu_r = contact["rolling_friction"]) {
-    c.rolling_friction = reader.non_negative(mu_r, "contact.rolling_friction");
-  }
-  c.contact_damping = reader.non_negative(reader.require(contact, "contact", "damping_ratio"),
-                                          "contact.damping_ratio");
+  read_contact_model(reader, c, contact, "contact", true, c.contact);
 }
 
 /// `limits:`: the overlap that stops a run (also the limit of the initial overlaps).
@@ -922,58 +1024,118 @@ void read_limits(const Reader& reader, const YAML::Node& root, Case& c) {
   }
 }
 
-/// `bond:`; without one, plain damped Hertz.
-void read_bond(const Reader& reader, const YAML::Node& root, Case& c) {
-  if (const YAML::Node bond = root["bond"]) {
-    reader.expect_map(bond, "bond");
-    reader.check_keys(
-        bond, "bond",
-        {"alpha", "stiffness", "equilibrium_overlap", "damping_ratio", "criterion", "temperature"});
-    const YAML::Node alpha = reader.require(bond, "bond", "alpha");
-    c.bond.alpha = reader.number(alpha, "bond.alpha");
-    if (!(c.bond.alpha >= 0.0 && c.bond.alpha < 1.5)) {
-      reader.fail(alpha, "bond.alpha",
+/// The keys of a `bond:` block (or an interaction's) at @p path over @p bond. A complete block
+/// (@p complete: the top-level one, or an interaction's over defaults without a bond) needs
+/// alpha, a strength, damping_ratio and criterion; otherwise each key given overrides.
+void read_bond_keys(const Reader& reader, const Case& c, const YAML::Node& node,
+                    const std::string& path, bool complete, BondModel& bond) {
+  reader.expect_map(node, path);
+  reader.check_keys(
+      node, path,
+      {"alpha", "stiffness", "equilibrium_overlap", "damping_ratio", "criterion", "temperature"});
+  const auto key = [&](const char* name) {
+    return complete ? reader.require(node, path, name) : node[name];
+  };
+  if (const YAML::Node alpha = key("alpha")) {
+    bond.alpha = reader.number(alpha, path + ".alpha");
+    if (!(bond.alpha >= 0.0 && bond.alpha < 1.5)) {
+      reader.fail(alpha, path + ".alpha",
                   "must lie in [0, 1.5): the bond is stable only while the contact exponent 3/2 "
                   "exceeds the adhesion exponent (eq. 9, 14), got " +
                       alpha.Scalar());
     }
-    const YAML::Node stiffness = bond["stiffness"];
-    const YAML::Node overlap = bond["equilibrium_overlap"];
-    if (stiffness && overlap) {
-      reader.fail(overlap, "bond.equilibrium_overlap",
-                  "give either bond.stiffness or bond.equilibrium_overlap, not both");
+  }
+  const YAML::Node stiffness = node["stiffness"];
+  const YAML::Node overlap = node["equilibrium_overlap"];
+  if (stiffness && overlap) {
+    reader.fail(overlap, path + ".equilibrium_overlap",
+                "give either " + path + ".stiffness or " + path + ".equilibrium_overlap, not both");
+  }
+  if (complete && !stiffness && !overlap) {
+    reader.fail(node, path, "needs " + path + ".stiffness or " + path + ".equilibrium_overlap");
+  }
+  if (stiffness) {
+    bond.input = AdhesionInput::kStiffness;
+    bond.stiffness = reader.positive(stiffness, path + ".stiffness");
+  } else if (overlap) {
+    bond.input = AdhesionInput::kEquilibriumOverlap;
+    bond.equilibrium_overlap = reader.positive(overlap, path + ".equilibrium_overlap");
+  }
+  if (const YAML::Node damping = key("damping_ratio")) {
+    bond.damping_ratio = reader.non_negative(damping, path + ".damping_ratio");
+  }
+  const YAML::Node criterion = key("criterion");
+  if (criterion) bond.criterion = criterion_from(reader, criterion, path + ".criterion");
+  const YAML::Node temperature = node["temperature"];
+  if (bond.criterion == BondCriterion::kTemperature) {
+    if (!c.thermal) fail_without_thermal(reader, criterion ? criterion : node, path + ".criterion");
+    if (temperature) {
+      bond.temperature = reader.positive(temperature, path + ".temperature");
+    } else if (!(bond.temperature > 0.0)) {
+      reader.fail(node, path + ".temperature",
+                  "missing required key (the bonding temperature of criterion temperature)");
     }
-    if (!stiffness && !overlap) {
-      reader.fail(bond, "bond", "needs bond.stiffness or bond.equilibrium_overlap");
-    }
-    if (stiffness) {
-      c.bond.input = AdhesionInput::kStiffness;
-      c.bond.stiffness = reader.positive(stiffness, "bond.stiffness");
-    } else {
-      c.bond.input = AdhesionInput::kEquilibriumOverlap;
-      c.bond.equilibrium_overlap = reader.positive(overlap, "bond.equilibrium_overlap");
-    }
-    c.bond.damping_ratio =
-        reader.non_negative(reader.require(bond, "bond", "damping_ratio"), "bond.damping_ratio");
-    const YAML::Node criterion = reader.require(bond, "bond", "criterion");
-    c.bond.criterion = criterion_from(reader, criterion, "bond.criterion");
-    const YAML::Node temperature = bond["temperature"];
-    if (c.bond.criterion == BondCriterion::kTemperature) {
-      if (!c.thermal) fail_without_thermal(reader, criterion, "bond.criterion");
-      if (!temperature) {
-        reader.fail(bond, "bond.temperature",
-                    "missing required key (the bonding temperature of criterion temperature)");
-      }
-      c.bond.temperature = reader.positive(temperature, "bond.temperature");
-    } else if (temperature) {
-      reader.fail(temperature, "bond.temperature",
-                  "only with criterion temperature (the criterion is " + criterion.Scalar() + ")");
-    }
+  } else if (temperature) {
+    reader.fail(temperature, path + ".temperature",
+                "only with criterion temperature (the criterion is " +
+                    std::string(criterion ? criterion.Scalar() : "not temperature") + ")");
+  }
+}
+
+/// `bond:`, the paper's bond law of every pair of materials; without one, no pair bonds.
+void read_bond(const Reader& reader, const YAML::Node& root, Case& c) {
+  if (const YAML::Node bond = root["bond"]) {
+    read_bond_keys(reader, c, bond, "bond", true, c.contact.bond);
   } else {
-    // No bond block: plain damped Hertz. delta_eq only has to be a valid number.
-    c.bond.criterion = BondCriterion::kNever;
-    c.bond.input = AdhesionInput::kEquilibriumOverlap;
-    c.bond.equilibrium_overlap = 1.0;
+    // No bond block: no bond forms. delta_eq only has to be a valid number.
+    c.contact.bond.criterion = BondCriterion::kNever;
+    c.contact.bond.input = AdhesionInput::kEquilibriumOverlap;
+    c.contact.bond.equilibrium_overlap = 1.0;
+  }
+}
+
+/// `interactions:`: per pair of materials, contact-model and bond keys over the defaults.
+void read_interactions(const Reader& reader, const YAML::Node& root, Case& c) {
+  const YAML::Node list = root["interactions"];
+  if (!list) return;
+  if (!list.IsSequence()) reader.fail(list, "interactions", "expected a list of entries");
+  for (std::size_t k = 0; k < list.size(); ++k) {
+    const std::string path = Reader::join("interactions", k);
+    const YAML::Node entry = list[k];
+    reader.expect_map(entry, path);
+    std::vector<std::string> keys = contact_model_keys();
+    keys.insert(keys.begin(), {"materials", "bond"});
+    reader.check_keys(entry, path, keys);
+    const YAML::Node names = reader.require(entry, path, "materials");
+    if (!names.IsSequence() || names.size() != 2) {
+      reader.fail(names, path + ".materials", "expected a list of two material names");
+    }
+    Interaction interaction;
+    int* indices[2] = {&interaction.first_material, &interaction.second_material};
+    for (std::size_t m = 0; m < 2; ++m) {
+      const std::string name = reader.text(names[m], Reader::join(path + ".materials", m));
+      const auto found =
+          std::find_if(c.materials.begin(), c.materials.end(),
+                       [&](const Material& material) { return material.name == name; });
+      if (found == c.materials.end()) {
+        reader.fail(names[m], Reader::join(path + ".materials", m),
+                    "no material named '" + name + "'");
+      }
+      *indices[m] = static_cast<int>(found - c.materials.begin());
+    }
+    for (const Interaction& before : c.interactions) {
+      const bool same = (before.first_material == interaction.first_material &&
+                         before.second_material == interaction.second_material) ||
+                        (before.first_material == interaction.second_material &&
+                         before.second_material == interaction.first_material);
+      if (same) reader.fail(names, path + ".materials", "this pair of materials is given twice");
+    }
+    interaction.model = c.contact;
+    read_contact_model(reader, c, entry, path, false, interaction.model);
+    if (const YAML::Node bond = entry["bond"]) {
+      read_bond_keys(reader, c, bond, path + ".bond", !root["bond"], interaction.model.bond);
+    }
+    c.interactions.push_back(interaction);
   }
 }
 
@@ -1045,19 +1207,27 @@ void check_heat_capacities(const Reader& reader, const YAML::Node& root, Case& c
 /// A bond whose equilibrium overlap the run's own overlap limit forbids would stop every run that
 /// bonds: refuse delta_eq at or above limits.max_overlap_fraction of the smallest radius.
 void check_equilibrium_overlap(const Reader& reader, const YAML::Node& root, const Case& c) {
-  if (c.bond.criterion == BondCriterion::kNever ||
-      c.bond.input != AdhesionInput::kEquilibriumOverlap || c.particles.empty()) {
-    return;
-  }
+  if (c.particles.empty()) return;
   double smallest = c.particles.front().radius;
   for (const ParticleSpec& p : c.particles) smallest = std::min(smallest, p.radius);
   const double limit = c.max_overlap_fraction * smallest;
-  if (c.bond.equilibrium_overlap >= limit) {
+  const auto check = [&](const BondModel& bond, const YAML::Node& node, const std::string& path) {
+    if (bond.criterion == BondCriterion::kNever ||
+        bond.input != AdhesionInput::kEquilibriumOverlap || bond.equilibrium_overlap < limit) {
+      return;
+    }
     std::ostringstream what;
-    what << c.bond.equilibrium_overlap << " m is not below limits.max_overlap_fraction ("
+    what << bond.equilibrium_overlap << " m is not below limits.max_overlap_fraction ("
          << c.max_overlap_fraction << ") of the smallest radius, " << limit
          << " m: a bonded pair would stop the run";
-    reader.fail(root["bond"]["equilibrium_overlap"], "bond.equilibrium_overlap", what.str());
+    reader.fail(node && node["equilibrium_overlap"] ? node["equilibrium_overlap"] : root,
+                path + ".equilibrium_overlap", what.str());
+  };
+  check(c.contact.bond, root["bond"], "bond");
+  for (std::size_t k = 0; k < c.interactions.size(); ++k) {
+    const YAML::Node entry = root["interactions"][k];
+    const std::string path = Reader::join("interactions", k) + ".bond";
+    check(c.interactions[k].model.bond, entry["bond"] ? entry["bond"] : root["bond"], path);
   }
 }
 
@@ -1191,10 +1361,10 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
   c.source = reader.source();
   if (!root || root.IsNull()) reader.fail(root, "", "the file is empty");
   reader.expect_map(root, "");
-  reader.check_keys(
-      root, "",
-      {"description", "materials", "contact", "bond", "time", "gravity", "particles", "insert",
-       "domain", "walls", "neighbors", "output", "analysis", "thermal", "laser", "limits"});
+  reader.check_keys(root, "",
+                    {"description", "materials", "contact", "bond", "interactions", "time",
+                     "gravity", "particles", "insert", "domain", "walls", "neighbors", "output",
+                     "analysis", "thermal", "laser", "limits"});
 
   read_materials(reader, root, c);
   read_contact(reader, root, c);
@@ -1209,7 +1379,7 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
   }
 
   read_bond(reader, root, c);
-  if (std::holds_alternative<BondLawSpec>(c.normal_law)) c.normal_law = BondLawSpec{c.bond.alpha};
+  read_interactions(reader, root, c);
   read_time(reader, root, c);
   if (const YAML::Node gravity = root["gravity"]) c.gravity = reader.vector3(gravity, "gravity");
 

@@ -141,7 +141,28 @@ bool restart_may_change(const std::string& key) {
   return key == "time.end" || key == "output" || key.rfind("output.", 0) == 0;
 }
 
-/// Materials, the contact and bond laws, the time step and gravity.
+/// Contact model @p m under key @p key.
+void write_canonical_contact_model(const std::string& key, const ContactModel& m,
+                                   CanonicalText& t) {
+  t.add(key + ".damping_ratio", m.damping_ratio);
+  t.add(key + ".restitution", m.restitution);
+  t.add(key + ".friction", m.friction);
+  t.add(key + ".rolling_friction", m.rolling_friction);
+  t.add(key + ".rolling_model", static_cast<int>(m.rolling_model));
+  t.add(key + ".rolling_damping", m.rolling_damping);
+  t.add(key + ".cohesion", static_cast<int>(m.cohesion));
+  t.add(key + ".cohesion_energy", m.cohesion_energy);
+  const BondModel& bond = m.bond;
+  t.add(key + ".bond.alpha", bond.alpha);
+  t.add(key + ".bond.input", static_cast<int>(bond.input));
+  t.add(key + ".bond.stiffness", bond.stiffness);
+  t.add(key + ".bond.equilibrium_overlap", bond.equilibrium_overlap);
+  t.add(key + ".bond.damping_ratio", bond.damping_ratio);
+  t.add(key + ".bond.criterion", static_cast<int>(bond.criterion));
+  t.add(key + ".bond.temperature", bond.temperature);
+}
+
+/// Materials, the contact models and laws, the time step and gravity.
 void write_canonical_laws(const Case& c, CanonicalText& t) {
   for (std::size_t k = 0; k < c.materials.size(); ++k) {
     const Material& m = c.materials[k];
@@ -154,16 +175,14 @@ void write_canonical_laws(const Case& c, CanonicalText& t) {
     t.add(key + ".thermal_conductivity", m.thermal_conductivity);
     t.add(key + ".emissivity", m.emissivity);
   }
-  t.add("case.contact_damping", c.contact_damping);
-  t.add("case.friction", c.friction);
-  t.add("case.rolling_friction", c.rolling_friction);
-  t.add("case.bond.alpha", c.bond.alpha);
-  t.add("case.bond.input", static_cast<int>(c.bond.input));
-  t.add("case.bond.stiffness", c.bond.stiffness);
-  t.add("case.bond.equilibrium_overlap", c.bond.equilibrium_overlap);
-  t.add("case.bond.damping_ratio", c.bond.damping_ratio);
-  t.add("case.bond.criterion", static_cast<int>(c.bond.criterion));
-  t.add("case.bond.temperature", c.bond.temperature);
+  write_canonical_contact_model("case.contact", c.contact, t);
+  for (std::size_t k = 0; k < c.interactions.size(); ++k) {
+    const Interaction& entry = c.interactions[k];
+    const std::string key = "case.interactions." + std::to_string(k);
+    t.add(key + ".first_material", entry.first_material);
+    t.add(key + ".second_material", entry.second_material);
+    write_canonical_contact_model(key, entry.model, t);
+  }
   // The law by its place in NormalLawSpec and every parameter it declares.
   t.add("case.normal_law", static_cast<int>(c.normal_law.index()));
   std::visit(
@@ -328,8 +347,9 @@ void write_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
   for (const SlipRecord& slip : s.slips) {
     payload.put(slip.first_id);
     payload.put(slip.second_id);
-    for (const double v : {slip.sx, slip.sy, slip.sz}) payload.put(v);
+    for (const double v : {slip.sx, slip.sy, slip.sz, slip.rx, slip.ry, slip.rz}) payload.put(v);
     payload.put(slip.bonded);
+    payload.put(slip.joined);
   }
   payload.put(s.bodies);
   payload.put(s.bonds_formed);
@@ -339,6 +359,8 @@ void write_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
   // Thermal arrays, one value per particle, only in thermal runs.
   payload.put(static_cast<std::uint8_t>(p.thermal() ? 1 : 0));
   if (p.thermal()) put_section(CheckpointSection::kThermal);
+  payload.put(static_cast<std::uint8_t>(p.contact_history ? 1 : 0));
+  if (p.contact_history) put_section(CheckpointSection::kContactHistory);
   payload.put(checkpoint.history);
 
   AtomicFile file(path, std::ios::binary);
@@ -422,24 +444,24 @@ Checkpoint read_checkpoint(const std::string& path) {
   const auto n = r.get<std::uint64_t>();
   r.check_room(n, sizeof(double));
   Particles& p = c.particles;
-  const auto get_section = [&](CheckpointSection section, std::uint64_t values_per_particle) {
+  // Per-wall fields hold wall_values per wall: the wall count is read before their section.
+  const auto get_section = [&](CheckpointSection section) {
     for (const ParticleField& field : kParticleFields) {
       if (has(field, kCheckpointed) && checkpoint_section(field) == section) {
-        std::visit([&](auto member) { r.get(p.*member, n * values_per_particle); }, field.member);
+        const std::uint64_t width = values_per_particle(field, p);
+        if (width > 1 && n > UINT64_MAX / width) r.fail("implausible wall count");
+        std::visit([&](auto member) { r.get(p.*member, n * width); }, field.member);
       }
     }
   };
-  get_section(CheckpointSection::kParticle, 1);
+  get_section(CheckpointSection::kParticle);
   for (auto* field : {&s.list.x0, &s.list.y0, &s.list.z0}) r.get(*field, n);
   p.walls = r.get<std::int32_t>();
   if (p.walls < 0) r.fail("negative wall count");
-  const auto slip_values_per_particle = 3 * static_cast<std::uint64_t>(p.walls);
-  if (slip_values_per_particle > 0 && n > UINT64_MAX / slip_values_per_particle) {
-    r.fail("implausible wall count");  // the product below would wrap around
-  }
-  get_section(CheckpointSection::kWall, slip_values_per_particle);
+  if (p.walls > INT32_MAX / Particles::kWallContactValues) r.fail("implausible wall count");
+  get_section(CheckpointSection::kWall);
   const auto slip_count = r.get<std::uint64_t>();
-  constexpr std::size_t kSlipBytes = 2 * sizeof(std::int64_t) + 3 * sizeof(double) + 1;
+  constexpr std::size_t kSlipBytes = 2 * sizeof(std::int64_t) + 6 * sizeof(double) + 2;
   r.check_room(slip_count, kSlipBytes);
   s.slips.resize(slip_count);
   for (SlipRecord& slip : s.slips) {
@@ -448,7 +470,11 @@ Checkpoint read_checkpoint(const std::string& path) {
     slip.sx = r.get<double>();
     slip.sy = r.get<double>();
     slip.sz = r.get<double>();
+    slip.rx = r.get<double>();
+    slip.ry = r.get<double>();
+    slip.rz = r.get<double>();
     slip.bonded = r.get<std::uint8_t>();
+    slip.joined = r.get<std::uint8_t>();
   }
   const auto body_values = r.get<std::uint64_t>();
   r.check_room(body_values, sizeof(double));
@@ -458,14 +484,16 @@ Checkpoint read_checkpoint(const std::string& path) {
   s.bonds_broken = r.get<std::int64_t>();
   s.laser_energy = r.get<double>();
   s.laser_missed = r.get<double>();
-  if (r.get<std::uint8_t>() != 0) get_section(CheckpointSection::kThermal, 1);
+  if (r.get<std::uint8_t>() != 0) get_section(CheckpointSection::kThermal);
+  p.contact_history = r.get<std::uint8_t>() != 0;
+  if (p.contact_history) get_section(CheckpointSection::kContactHistory);
   c.history = r.get_text();
   if (!r.at_end()) r.fail("trailing bytes");
   // A field the table does not checkpoint restarts from zero, sized like the others, so that it
   // is never an empty array the stepper writes past.
   for (const ParticleField& field : kParticleFields) {
-    if (has(field, kCheckpointed) || (has(field, kThermal) && !p.thermal())) continue;
-    const std::size_t width = has(field, kPerWall) ? 3 * static_cast<std::size_t>(p.walls) : 1;
+    if (has(field, kCheckpointed) || !in_use(field, p)) continue;
+    const std::size_t width = values_per_particle(field, p);
     std::visit([&](auto member) { (p.*member).assign(n * width, {}); }, field.member);
   }
   return c;

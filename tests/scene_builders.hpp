@@ -12,9 +12,9 @@ inline Case soft_case(double xi_con) {
   Case c;
   c.source = "test";
   c.materials.push_back({"powder", 2500.0, 5.0e6, 0.3});
-  c.contact_damping = xi_con;
-  c.bond.criterion = BondCriterion::kNever;
-  c.bond.equilibrium_overlap = 1e-6;
+  c.contact.damping_ratio = xi_con;
+  c.contact.bond.criterion = BondCriterion::kNever;
+  c.contact.bond.equilibrium_overlap = 1e-6;
   c.time_step = 1e-6;
   c.end_time = 1.0;
   return c;

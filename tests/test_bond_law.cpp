@@ -153,7 +153,7 @@ TEST(BondLaw, TemperatureCriterionKeepsASolidifiedBond) {
 TEST(BondLaw, RegisteredLawObjectIsTheBondLaw) {
   PairCoefficients c =
       make_pair_coefficients(1e9, 0.3, 0.5, 0.5, AdhesionInput::kEquilibriumOverlap, 2e-6);
-  const NormalLawSpec spec = BondLawSpec{0.5};
+  const NormalLawSpec spec = BondLawSpec{};  // alpha_adh is the pair's: 0.5
   const NormalForce f = with_normal_law(spec, [&](const auto& law) {
     return law.force(law.pair(c, kRStar, kMStar), 3e-6, 0.01, true);
   });

@@ -41,13 +41,13 @@ TEST(Calculator, CriticalVelocityAgainstDensityTable) {
 
 TEST(Calculator, StiffnessAndEquilibriumOverlapAreInverse) {
   Case c = paper_case();
-  c.bond.alpha = 0.7;
-  c.normal_law = BondLawSpec{0.7};
-  c.bond.input = AdhesionInput::kStiffness;
-  c.bond.stiffness = 3.0e3;
+  c.contact.bond.alpha = 0.7;
+  c.normal_law = BondLawSpec{};
+  c.contact.bond.input = AdhesionInput::kStiffness;
+  c.contact.bond.stiffness = 3.0e3;
   const PairReport from_k = compute_pair_report(c, 0, 1e-3, 0, 2e-3, 1.0);
-  c.bond.input = AdhesionInput::kEquilibriumOverlap;
-  c.bond.equilibrium_overlap = from_k.equilibrium_overlap;
+  c.contact.bond.input = AdhesionInput::kEquilibriumOverlap;
+  c.contact.bond.equilibrium_overlap = from_k.equilibrium_overlap;
   const PairReport from_overlap = compute_pair_report(c, 0, 1e-3, 0, 2e-3, 1.0);
   EXPECT_NEAR(from_overlap.adhesion_stiffness, 3.0e3, 1e-9 * 3.0e3);
   // eq. 14 directly: delta_crit = (alpha k_adh / (2 E* sqrt r*))^(1/(3/2 - alpha)).
@@ -85,7 +85,7 @@ TEST(Calculator, TimeStepRuleAndWarnings) {
 
 TEST(Calculator, DamperStepsEnterTheRuleAndTheWarnings) {
   Case c = paper_case();
-  c.contact_damping = 1000.0;
+  c.contact.damping_ratio = 1000.0;
   const PairReport r = compute_pair_report(c, 0, 1e-3, 0, 1e-3, 2.6);
   EXPECT_DOUBLE_EQ(r.contact_stiffness,
                    2.0 * r.effective_modulus * std::sqrt(r.effective_radius * r.max_overlap));
@@ -99,8 +99,8 @@ TEST(Calculator, DamperStepsEnterTheRuleAndTheWarnings) {
 
 TEST(Calculator, NoBondingNoBondQuantitiesInTheRule) {
   Case c = paper_case();
-  c.bond.criterion = BondCriterion::kNever;
-  c.bond.damping_ratio = 1e6;  // would set the limit if a bond could form
+  c.contact.bond.criterion = BondCriterion::kNever;
+  c.contact.bond.damping_ratio = 1e6;  // would set the limit if a bond could form
   const PairReport r = compute_pair_report(c, 0, 1e-3, 0, 1e-3, 2.6);
   EXPECT_FALSE(r.bonding);
   EXPECT_EQ(r.bond_damper_step, std::numeric_limits<double>::infinity());
@@ -110,8 +110,8 @@ TEST(Calculator, NoBondingNoBondQuantitiesInTheRule) {
 
 TEST(Calculator, RejectsUnstableExponent) {
   Case c = paper_case();
-  c.bond.alpha = 1.5;
-  c.normal_law = BondLawSpec{1.5};
+  c.contact.bond.alpha = 1.5;
+  c.normal_law = BondLawSpec{};
   EXPECT_THROW(compute_pair_report(c, 0, 1e-3, 0, 1e-3, 1.0), std::invalid_argument);
 }
 

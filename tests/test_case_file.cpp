@@ -79,10 +79,10 @@ TEST(CaseFile, ValidCaseReadsEveryField) {
   ASSERT_EQ(c.materials.size(), 1u);
   EXPECT_EQ(c.materials[0].name, "powder");
   EXPECT_DOUBLE_EQ(c.materials[0].youngs_modulus, 1e9);
-  EXPECT_DOUBLE_EQ(c.contact_damping, 0.1);
-  EXPECT_EQ(c.bond.input, AdhesionInput::kEquilibriumOverlap);
-  EXPECT_DOUBLE_EQ(c.bond.equilibrium_overlap, 5e-5);
-  EXPECT_EQ(c.bond.criterion, BondCriterion::kAlways);
+  EXPECT_DOUBLE_EQ(c.contact.damping_ratio, 0.1);
+  EXPECT_EQ(c.contact.bond.input, AdhesionInput::kEquilibriumOverlap);
+  EXPECT_DOUBLE_EQ(c.contact.bond.equilibrium_overlap, 5e-5);
+  EXPECT_EQ(c.contact.bond.criterion, BondCriterion::kAlways);
   EXPECT_DOUBLE_EQ(c.time_step, 5e-7);
   ASSERT_EQ(c.particles.size(), 2u);
   EXPECT_DOUBLE_EQ(c.particles[0].velocity.x(), 1.0);
@@ -202,7 +202,7 @@ TEST(CaseFile, OverridesSetScalarsByDottedPath) {
   EXPECT_DOUBLE_EQ(c.materials[0].density, 500.0);
   EXPECT_DOUBLE_EQ(c.particles[1].radius, 0.002);
   EXPECT_DOUBLE_EQ(c.particles[0].position.z(), 0.25);
-  EXPECT_EQ(c.bond.criterion, BondCriterion::kNever);
+  EXPECT_EQ(c.contact.bond.criterion, BondCriterion::kNever);
 }
 
 TEST(CaseFile, OverridesAreValidatedLikeTheFile) {
@@ -231,8 +231,8 @@ TEST(CaseFile, ThermalCaseReadsEveryField) {
   EXPECT_DOUBLE_EQ(c.materials[1].thermal_conductivity, 16.0);
   EXPECT_DOUBLE_EQ(c.materials[1].emissivity, 0.0);  // default
 
-  EXPECT_EQ(c.bond.criterion, BondCriterion::kTemperature);
-  EXPECT_DOUBLE_EQ(c.bond.temperature, 1900.0);
+  EXPECT_EQ(c.contact.bond.criterion, BondCriterion::kTemperature);
+  EXPECT_DOUBLE_EQ(c.contact.bond.temperature, 1900.0);
 
   ASSERT_TRUE(c.thermal.has_value());
   EXPECT_DOUBLE_EQ(c.thermal->initial_temperature, 300.0);
@@ -298,7 +298,7 @@ TEST(CaseFile, ThermalDefaultsAndNoThermal) {
   EXPECT_FALSE(c.laser.has_value());
   EXPECT_DOUBLE_EQ(c.materials[0].thermal_conductivity, 0.0);
   EXPECT_DOUBLE_EQ(c.particles[1].temperature, 293.15);
-  EXPECT_EQ(c.bond.criterion, BondCriterion::kAlways);
+  EXPECT_EQ(c.contact.bond.criterion, BondCriterion::kAlways);
 }
 
 TEST(CaseFile, BondTemperatureGoesWithCriterionTemperature) {

@@ -172,7 +172,7 @@ TEST(CaseFingerprint, CaseBuiltInCodeIsCovered) {
   EXPECT_TRUE(changed([](Case& c) { c.bodies[0].shape = SphereShape{1e-3}; }));
   EXPECT_TRUE(changed([](Case& c) { c.materials[1].poisson_ratio = 0.31; }));
   EXPECT_TRUE(changed([](Case& c) { c.walls[0].temperature = 300.0; }));
-  EXPECT_TRUE(changed([](Case& c) { c.bond.criterion = BondCriterion::kAlways; }));
+  EXPECT_TRUE(changed([](Case& c) { c.contact.bond.criterion = BondCriterion::kAlways; }));
   EXPECT_TRUE(changed([](Case& c) { c.thermal = ThermalModel{}; }));
   EXPECT_TRUE(changed([](Case& c) { c.domain->periodic[2] = true; }));
   EXPECT_FALSE(changed([](Case& c) { c.end_time = 1.0; }));

@@ -20,8 +20,8 @@ constexpr double kRadius = 1e-3;
 Case sphere_on_floor(double theta, double friction, double rolling_friction) {
   Case c = testing::soft_case(0.3);
   c.materials[0].youngs_modulus = 1e8;
-  c.friction = friction;
-  c.rolling_friction = rolling_friction;
+  c.contact.friction = friction;
+  c.contact.rolling_friction = rolling_friction;
   c.gravity = Eigen::Vector3d(kG * std::sin(theta), 0.0, -kG * std::cos(theta));
   ParticleSpec p;
   p.radius = kRadius;
@@ -92,8 +92,8 @@ TEST(Rolling, SphereDeceleratesAsTheRollingModelPredicts) {
 Case frictional_gas(int reorder_interval, double skin = 2e-5) {
   Case c = testing::soft_case(0.2);
   c.materials[0].youngs_modulus = 5e8;
-  c.friction = 0.5;
-  c.rolling_friction = 0.05;
+  c.contact.friction = 0.5;
+  c.contact.rolling_friction = 0.05;
   testing::add_random_gas(c, 2500, 0.2e-3, 0.5e-3, 0.0115, 1.0, 31);
   c.domain->periodic = {true, true, true};
   c.time_step = 1e-7;

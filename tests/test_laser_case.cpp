@@ -66,7 +66,7 @@ TEST(LaserCase, CiVariantBondsAlongTheTrackOnly) {
   for (const Row& row : rows) {
     if (row.bonds == 0) continue;
     ++bonded_particles;
-    EXPECT_GE(row.peak, c.bond.temperature);
+    EXPECT_GE(row.peak, c.contact.bond.temperature);
     // Hot particles lie under the beam's path: within 1.5 spot radii of the track's axis.
     EXPECT_LT(distance_to_path(laser, row.x, row.y), 1.5 * laser.spot_radius);
   }
@@ -83,7 +83,7 @@ TEST(LaserCase, CiVariantBondsAlongTheTrackOnly) {
   // The band is about the beam's width: wider than one particle, narrower than the window.
   EXPECT_GT(t.track.width, 2.0 * 10e-6);
   EXPECT_LT(t.track.width, 6.0 * laser.spot_radius);
-  EXPECT_GT(t.track.peak_temperature, c.bond.temperature);
+  EXPECT_GT(t.track.peak_temperature, c.contact.bond.temperature);
 
   // Temperatures reach ParaView.
   std::filesystem::path newest;

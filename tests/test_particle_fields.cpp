@@ -27,14 +27,15 @@ double value_of(std::size_t row, std::size_t k) {
   return static_cast<double>(1000 * (row + 1) + k);
 }
 
-/// kCount particles with walls and temperatures, every field of the table filled with
-/// value_of(row, k).
+/// kCount particles with walls, temperatures and contact history, every field of the table
+/// filled with value_of(row, k).
 Particles filled() {
   Particles p;
   p.walls = kWalls;
+  p.contact_history = true;
   std::size_t row = 0;
   for (const ParticleField& field : kParticleFields) {
-    const std::size_t per = has(field, kPerWall) ? 3 * kWalls : 1;
+    const std::size_t per = values_per_particle(field, p);
     std::visit(
         [&](auto member) {
           auto& values = p.*member;
@@ -63,6 +64,7 @@ std::vector<double> values(const Particles& p, const ParticleField& field) {
 TEST(ParticleFields, AddGrowsEveryFieldInUse) {
   for (const bool thermal : {false, true}) {
     Particles p;
+    p.contact_history = thermal;  // both kinds of optional field, on and off
     p.set_wall_count(kWalls);
     const double position[3] = {1.0, 2.0, 3.0};
     const double velocity[3] = {4.0, 5.0, 6.0};
@@ -90,6 +92,7 @@ TEST(ParticleFields, AddGrowsEveryFieldInUse) {
     EXPECT_EQ(p.vx[1], 4.0);
     EXPECT_EQ(p.fx[1], 0.0);
     EXPECT_EQ(p.wall_slip.back(), 0.0);
+    EXPECT_EQ(p.wall_contact.size(), thermal ? 2 * 4 * kWalls : 0u);
     if (thermal) {
       EXPECT_EQ(p.temperature[0], 300.0);
       EXPECT_EQ(p.temperature[1], 0.0);
@@ -141,9 +144,11 @@ TEST(ParticleFields, CheckpointKeepsEveryCheckpointedFieldExactly) {
   for (const bool thermal : {true, false}) {
     Checkpoint written;
     written.particles = filled();
+    // Without temperatures, also without contact history: each optional section both ways.
+    written.particles.contact_history = thermal;
     if (!thermal) {
       for (const ParticleField& field : kParticleFields) {
-        if (has(field, kThermal)) {
+        if (!in_use(field, written.particles) || has(field, kThermal)) {
           std::visit([&](auto member) { (written.particles.*member).clear(); }, field.member);
         }
       }

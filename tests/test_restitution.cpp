@@ -75,7 +75,7 @@ double measured_hertz_restitution(double xi, double speed) {
 }
 
 TEST(RestitutionHertz, ElasticWithoutDamping) {
-  EXPECT_EQ(hertz_contact_restitution(0.0), 1.0);
+  EXPECT_EQ(hertz_restitution(0.0), 1.0);
   EXPECT_EQ(hertz_damping_ratio(1.0), 0.0);
   EXPECT_EQ(hooke_damping_ratio(1.0), 0.0);
   EXPECT_EQ(clamped_linear_restitution(0.0), 1.0);
@@ -86,7 +86,7 @@ TEST(RestitutionHertz, RoundTrip) {
   for (double e : {1e-6, 1e-3, 0.05, 0.1, 0.3, 0.5, 0.7, 0.9, 0.99, 0.999999, 1.0}) {
     const double xi = hertz_damping_ratio(e);
     EXPECT_GE(xi, 0.0) << e;
-    EXPECT_NEAR(hertz_contact_restitution(xi), e, 1e-13 * e) << e;
+    EXPECT_NEAR(hertz_restitution(xi), e, 1e-13 * e) << e;
   }
   // Critical damping of the mapped linear law, zeta = sqrt(6/5) xi = 1, is e = exp(-2).
   EXPECT_NEAR(hertz_damping_ratio(std::exp(-2.0)), std::sqrt(5.0 / 6.0), 1e-12);
@@ -94,14 +94,14 @@ TEST(RestitutionHertz, RoundTrip) {
 
 TEST(RestitutionHertz, DecreasesStrictlyAndStaysPositive) {
   // Through critical damping (xi = 0.9129) and far past it: a clamped contact always lets go.
-  double previous = hertz_contact_restitution(0.0);
+  double previous = hertz_restitution(0.0);
   for (double xi = 1e-4; xi < 2e3; xi *= 1.1) {
-    const double e = hertz_contact_restitution(xi);
+    const double e = hertz_restitution(xi);
     EXPECT_LT(e, previous) << xi;
     EXPECT_GT(e, 0.0) << xi;
     previous = e;
   }
-  EXPECT_TRUE(std::isnan(hertz_contact_restitution(-0.1)));
+  EXPECT_TRUE(std::isnan(hertz_restitution(-0.1)));
   EXPECT_TRUE(std::isnan(hertz_damping_ratio(0.0)));
   EXPECT_TRUE(std::isnan(hertz_damping_ratio(1.5)));
   EXPECT_TRUE(std::isnan(hertz_damping_ratio(std::numeric_limits<double>::quiet_NaN())));
@@ -113,16 +113,14 @@ TEST(RestitutionHertz, WeakAndStrongDampingLimits) {
   // dx = pi sqrt(6/5) xi (a Beta integral), and e = sqrt(1 - 2 W) ~ 1 - W. The next order is
   // ~2 xi relative, so 1e-4 at xi = 1e-5.
   for (double xi : {1e-6, 1e-5}) {
-    const double slope = (1.0 - hertz_contact_restitution(xi)) / xi;
+    const double slope = (1.0 - hertz_restitution(xi)) / xi;
     EXPECT_NEAR(slope, std::numbers::pi * std::sqrt(1.2), 1e-4 * slope) << xi;
   }
   // Strong damping: the approach stops at x^(5/4) = 5 / (4 sqrt(6) xi) with the spring negligible;
   // the pair then creeps out at the speed where spring and damper balance, x^(5/4) / (sqrt(6) xi),
   // and is released there: e = 5 / (24 xi^2). Corrections ~ln(xi) / xi^2: 1e-7 at xi = 1e4.
   for (double xi : {3e3, 1e4}) {
-    EXPECT_NEAR(hertz_contact_restitution(xi), 5.0 / (24.0 * xi * xi),
-                1e-6 * 5.0 / (24.0 * xi * xi))
-        << xi;
+    EXPECT_NEAR(hertz_restitution(xi), 5.0 / (24.0 * xi * xi), 1e-6 * 5.0 / (24.0 * xi * xi)) << xi;
   }
 }
 
@@ -131,7 +129,7 @@ TEST(RestitutionHertz, MatchesDimensionalImpact) {
   // (3e-10 relative; the clamp's kink costs ~ dt^2 F', the rest ~ dt^4), so 1e-8 relative leaves
   // margin and still sees any speed dependence or a wrong factor in the mapping.
   for (double xi : {0.02, 0.2, 0.5, std::sqrt(5.0 / 6.0), 2.0}) {
-    const double expected = hertz_contact_restitution(xi);
+    const double expected = hertz_restitution(xi);
     for (double speed : {0.1, 1.0, 5.0}) {
       EXPECT_NEAR(measured_hertz_restitution(xi, speed), expected, 1e-8 * expected)
           << "xi " << xi << " speed " << speed;
@@ -164,7 +162,7 @@ TEST(RestitutionHertz, UnclampedFormulaIsExactOnlyWithoutTheClamp) {
     // errs by ~ dt^(5/4), measured 1e-7 to 4e-7.
     EXPECT_NEAR(measured_restitution(unclamped, kMStar, 1.0, dt), e, 2e-6) << e;
     EXPECT_NEAR(measured_hertz_restitution(xi, 1.0), clamped[i], 1e-4) << e;
-    EXPECT_NEAR(hertz_contact_restitution(xi), clamped[i], 1e-4) << e;
+    EXPECT_NEAR(hertz_restitution(xi), clamped[i], 1e-4) << e;
     EXPECT_GT(hertz_damping_ratio(e), xi) << e;
   }
 }

@@ -103,11 +103,11 @@ HeldPair held_pair(double k) {
   c.particles.push_back(particle(r1, Eigen::Vector3d::Zero(), 1000.0));
   c.particles.push_back(particle(r2, Eigen::Vector3d(r1 + r2 - 1e-5, 0.0, 0.0), 300.0));
   pair.overlap = (r1 + r2) - c.particles[1].position.x();
-  c.bond.criterion = BondCriterion::kAlways;
-  c.bond.alpha = 1.0;
-  c.bond.input = AdhesionInput::kEquilibriumOverlap;
-  c.bond.equilibrium_overlap = pair.overlap;
-  c.bond.damping_ratio = 0.5;
+  c.contact.bond.criterion = BondCriterion::kAlways;
+  c.contact.bond.alpha = 1.0;
+  c.contact.bond.input = AdhesionInput::kEquilibriumOverlap;
+  c.contact.bond.equilibrium_overlap = pair.overlap;
+  c.contact.bond.damping_ratio = 0.5;
   const double r_star = effective_radius(r1, r2);
   pair.conductance = 2.0 * k * std::sqrt(r_star) * std::sqrt(pair.overlap);
   const double density = c.materials[0].density;
@@ -212,8 +212,8 @@ Case colliding_bed(bool periodic_z) {
   // k / c_p so large that a collision lasting ~30 steps exchanges a good part of the pair's
   // temperature difference while dt sum(H) / C stays well below 1.
   Case c = thermal_case(10.0, 4000.0);
-  c.friction = 0.5;
-  c.rolling_friction = 0.05;
+  c.contact.friction = 0.5;
+  c.contact.rolling_friction = 0.05;
   c.time_step = 5e-7;
   testing::add_random_gas(c, 400, 0.3e-3, 0.5e-3, 0.008, 2.0, 17);
   c.domain->periodic = {true, true, periodic_z};
@@ -414,9 +414,9 @@ Case powder_case() {
   c.source = "test";
   c.materials.push_back({"ti64", 4430.0, 1.0e7, 0.34, 560.0, 7.0, 0.3});
   c.materials.push_back({"steel", 7800.0, 1.0e7, 0.3, 500.0, 16.0, 0.0});
-  c.contact_damping = 0.3;
-  c.bond.criterion = BondCriterion::kNever;
-  c.bond.equilibrium_overlap = 3e-7;
+  c.contact.damping_ratio = 0.3;
+  c.contact.bond.criterion = BondCriterion::kNever;
+  c.contact.bond.equilibrium_overlap = 3e-7;
   c.time_step = 6.5e-8;
   c.end_time = 1.0;
   c.thermal = ThermalModel{};
@@ -526,12 +526,12 @@ Stack stack_on_floor(double t_bottom, double t_top) {
   const double g = 9.81;
   c.gravity = Eigen::Vector3d(0.0, 0.0, -g);
   c.walls.push_back({Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 0, "floor"});
-  c.bond.criterion = BondCriterion::kTemperature;
-  c.bond.temperature = 800.0;
-  c.bond.alpha = 0.0;
-  c.normal_law = BondLawSpec{0.0};
-  c.bond.equilibrium_overlap = 1e-5;
-  c.bond.damping_ratio = 0.5;
+  c.contact.bond.criterion = BondCriterion::kTemperature;
+  c.contact.bond.temperature = 800.0;
+  c.contact.bond.alpha = 0.0;
+  c.normal_law = BondLawSpec{};
+  c.contact.bond.equilibrium_overlap = 1e-5;
+  c.contact.bond.damping_ratio = 0.5;
   const Material& m = c.materials[0];
   const double e_star =
       effective_modulus(m.youngs_modulus, m.poisson_ratio, m.youngs_modulus, m.poisson_ratio);
@@ -680,13 +680,13 @@ TEST(ThermalDeterminism, SameBytesAtOneAndTwoThreads) {
   // a laser crossing the layer and criterion temperature (1100 K start, bonds at 1200 K). A small
   // skin forces rebuilds and reordering. Every result must be the same bits: no tolerance.
   Case c = powder_case();
-  c.friction = 0.5;
-  c.rolling_friction = 0.1;
-  c.bond.criterion = BondCriterion::kTemperature;
-  c.bond.temperature = 1200.0;
-  c.bond.alpha = 0.0;
-  c.normal_law = BondLawSpec{0.0};
-  c.bond.damping_ratio = 1.0;
+  c.contact.friction = 0.5;
+  c.contact.rolling_friction = 0.1;
+  c.contact.bond.criterion = BondCriterion::kTemperature;
+  c.contact.bond.temperature = 1200.0;
+  c.contact.bond.alpha = 0.0;
+  c.normal_law = BondLawSpec{};
+  c.contact.bond.damping_ratio = 1.0;
   c.thermal->initial_temperature = 1100.0;
   c.thermal->ambient_temperature = 353.0;
   c.thermal->convection_coefficient = 10.0;

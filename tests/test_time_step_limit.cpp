@@ -68,7 +68,7 @@ particles:
 time: {step: 1.0e-7, end: 1.0}
 )",
                       "<floor>");
-  c.contact_damping = damping_ratio;
+  c.contact.damping_ratio = damping_ratio;
   const double r = 1e-3;
   const double m = sphere_mass(r, 2000.0);
   const double e_star = c.pair_coefficients(0, 0).effective_modulus;
@@ -113,8 +113,8 @@ TEST(DamperBound, TwoParticleImpactGainsNoEnergyBelowTheBound) {
   // its largest value, that of the undamped maximum overlap, only near the turning point, so the
   // exact bound at that stiffness separates a lossy rebound from one that gains energy.
   Case c = paper_case();
-  c.bond.criterion = BondCriterion::kNever;
-  c.contact_damping = 1.0;
+  c.contact.bond.criterion = BondCriterion::kNever;
+  c.contact.damping_ratio = 1.0;
   const double v = 1.3;
   const PairReport r = compute_pair_report(c, 0, 1e-3, 0, 1e-3, v);
   const double edge = damped_stability_step(r.contact_stiffness, r.effective_mass, 1.0);
@@ -129,13 +129,13 @@ TEST(DamperBound, TwoParticleImpactGainsNoEnergyBelowTheBound) {
 
 TEST(CaseLimit, LargeDampingRatiosAreRefusedNamingTheDamper) {
   Case c = paper_case();
-  c.contact_damping = 1000.0;
+  c.contact.damping_ratio = 1000.0;
   const TimeStepLimit contact = case_time_step_bound(c);
   EXPECT_LT(contact.step, c.time_step);
   EXPECT_NE(contact.cause.find("contact damper (contact.damping_ratio = 1000)"), std::string::npos)
       << contact.cause;
-  c.contact_damping = 0.0;
-  c.bond.damping_ratio = 1000.0;
+  c.contact.damping_ratio = 0.0;
+  c.contact.bond.damping_ratio = 1000.0;
   const TimeStepLimit bond = case_time_step_bound(c);
   EXPECT_LT(bond.step, c.time_step);
   EXPECT_NE(bond.cause.find("bond damper (bond.damping_ratio = 1000)"), std::string::npos)
@@ -150,12 +150,12 @@ TEST(CaseLimit, ShippedCasesAndPaperFiguresPassTheirLimit) {
   }
   // scripts/paper-figures.sh: xi_bond up to 1 in example 5.1, xi_con 0.1 in example 5.2.
   Case fig1 = paper_case();
-  fig1.bond.damping_ratio = 1.0;
+  fig1.contact.bond.damping_ratio = 1.0;
   EXPECT_LE(fig1.time_step, case_time_step_limit(fig1));
   // Example 5.2's densities run through collide, whose speeds (up to 12 m/s) are not the case's:
   // there the dampers' share of the limit must hold (the accuracy rule only warns).
   Case fig3 = load_case(BONDEM_CASES_DIR "/paper_5_2.yaml");
-  fig3.contact_damping = 0.1;
+  fig3.contact.damping_ratio = 0.1;
   for (const double density : {500.0, 8000.0}) {
     fig3.materials[0].density = density;
     const PairReport r = compute_pair_report(fig3, 0, 1e-3, 0, 1e-3, 12.0);
@@ -214,10 +214,10 @@ TEST(Restitution, MatchesACollideRun) {
   // Below v_crit and without bonding the pair rebounds on damped Hertz alone. 2e-8 s steps give
   // over 1 000 steps per contact: the collide run is then exact to about 1e-4 in e.
   Case c = paper_case();
-  c.bond.criterion = BondCriterion::kNever;
+  c.contact.bond.criterion = BondCriterion::kNever;
   c.time_step = 2e-8;
   for (const double xi : {0.0, 0.05, 0.197, 0.5, 1.0}) {
-    c.contact_damping = xi;
+    c.contact.damping_ratio = xi;
     const PairReport r = compute_pair_report(c, 0, 1e-3, 0, 1e-3, 1.0);
     for (const double v : {0.3, 1.0}) {
       EXPECT_NEAR(r.restitution, collide(c, v).restitution, 1e-3) << "xi " << xi << " v " << v;

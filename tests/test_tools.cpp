@@ -98,7 +98,7 @@ TEST(Blade, PushesParticlesAndItsLoadBalancesTheirMomentum) {
 
 TEST(Roller, SpinDragsAParticleAlongItsSurface) {
   Case c = row_on_floor(1);
-  c.friction = 0.5;
+  c.contact.friction = 0.5;
   Body roller;
   roller.name = "roller";
   // Spinning about +y at 50 rad/s: the bottom of the roller moves toward -x.

@@ -67,8 +67,8 @@ ThermalReport measure_heat(const Case& description, const Particles& p, const St
   thermal.laser_missed = stepper.laser_missed();
   thermal.final_max_temperature = *std::max_element(p.temperature.begin(), p.temperature.end());
   thermal.clusters_of_two_or_more = agglomerates;
-  double threshold = description.bond.temperature;
-  if (description.bond.criterion != BondCriterion::kTemperature) {
+  double threshold = description.contact.bond.temperature;
+  if (description.contact.bond.criterion != BondCriterion::kTemperature) {
     const double initial = description.thermal->initial_temperature;
     double peak = initial;
     for (const double t : p.peak_temperature) peak = std::max(peak, t);

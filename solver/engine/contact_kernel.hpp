@@ -14,12 +14,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "geometry/bodies.hpp"
 #include "geometry/walls.hpp"
 #include "solver/engine/neighbor_list.hpp"
 #include "solver/engine/scene.hpp"
+#include "solver/models/contact_laws.hpp"
 #include "solver/models/contact_point.hpp"
 #include "solver/models/heat_law.hpp"
 #include "solver/models/normal_law.hpp"
@@ -68,12 +70,18 @@ struct PairForces {
   }
 };
 
-/// Tangential spring elongation of every candidate pair, indexed like the neighbor list. It is
-/// carried across list rebuilds by particle ids (see Stepper), so reordering never loses it.
+/// What every candidate pair carries from step to step, indexed like the neighbor list: the
+/// tangential spring elongation and, where some material pair needs them (contact_history), the
+/// EPSD rolling spring and the JKR flag. It is carried across list rebuilds by particle ids (see
+/// Stepper), so reordering never loses it.
 struct PairHistory {
   std::vector<double> sx, sy, sz;
-  void resize(std::size_t pairs) {
-    for (std::vector<double>* s : {&sx, &sy, &sz}) s->assign(pairs, 0.0);
+  std::vector<double> rx, ry, rz;    ///< EPSD rolling spring torque [N m]
+  std::vector<std::uint8_t> joined;  ///< 1 while a JKR contact holds the pair
+  void resize(std::size_t pairs, bool springs, bool contact_history) {
+    for (std::vector<double>* s : {&sx, &sy, &sz}) s->assign(springs ? pairs : 0, 0.0);
+    for (std::vector<double>* r : {&rx, &ry, &rz}) r->assign(contact_history ? pairs : 0, 0.0);
+    joined.assign(contact_history ? pairs : 0, 0);
   }
 };
 
@@ -111,11 +119,12 @@ struct PairGeometryBlock {
   }
 };
 
-/// A candidate pair out of contact: no force, torque or heat, no bond, its spring released.
+/// A candidate pair out of contact: no force, torque or heat, no bond, its springs released.
 /// Returns 1 when it was bonded (a bond lost), else 0.
 template <bool kFriction>
 [[gnu::always_inline]] inline std::size_t release_pair(std::uint32_t k, bool thermal, bool rolling,
-                                                       PairForces& out, PairHistory& history) {
+                                                       bool contact_history, PairForces& out,
+                                                       PairHistory& history) {
   out.fx[k] = out.fy[k] = out.fz[k] = 0.0;
   const std::size_t lost = out.bonded[k];
   out.bonded[k] = 0;
@@ -125,17 +134,23 @@ template <bool kFriction>
     if (rolling) out.roll_x[k] = out.roll_y[k] = out.roll_z[k] = 0.0;
     history.sx[k] = history.sy[k] = history.sz[k] = 0.0;
   }
+  if (contact_history) {
+    history.rx[k] = history.ry[k] = history.rz[k] = 0.0;
+    history.joined[k] = 0;
+  }
   return lost;
 }
 
-/// Friction and rolling resistance of contact k = (i, j) pressed by @p load: adds the tangential
-/// force to slot k, stores its torque per lever, the overlap and the rolling torque, and updates
-/// the spring in @p history.
+/// Friction and rolling resistance of contact k = (i, j) with normal part @p n: adds the
+/// tangential force to slot k, stores its torque per lever, the overlap and the rolling torque,
+/// and updates the springs in @p history.
+template <class Law>
 [[gnu::always_inline]] inline void pair_friction(const Particles& p, const Scene& scene,
-                                                 const PairCoefficients& c, double load,
-                                                 const PairGeometry& g, std::size_t i,
-                                                 std::size_t j, std::uint32_t k, bool rolling,
-                                                 PairForces& out, PairHistory& history) {
+                                                 const Law& law, const PairCoefficients& c,
+                                                 const ContactNormal& n, const PairGeometry& g,
+                                                 std::size_t i, std::size_t j, std::uint32_t k,
+                                                 bool rolling, PairForces& out,
+                                                 PairHistory& history) {
   const Eigen::Vector3d normal(g.nx, g.ny, g.nz);
   const Eigen::Vector3d lever_i = pair_lever(p.radius[i], g.overlap) * normal;
   const Eigen::Vector3d lever_j = -pair_lever(p.radius[j], g.overlap) * normal;
@@ -145,14 +160,21 @@ template <bool kFriction>
       contact_velocity(Eigen::Vector3d(p.vx[i], p.vy[i], p.vz[i]), spin_i, lever_i,
                        Eigen::Vector3d(p.vx[j], p.vy[j], p.vz[j]), spin_j, lever_j),
       normal);
-  const double k_t = mindlin_stiffness(c.shear_modulus, spot_radius(g.r_star, g.overlap));
-  const double d_t = tangential_damping(c.contact_damping, g.m_star, k_t);
-  const TangentialForce t = tangential_force(
-      k_t, d_t, c.friction, load, normal,
-      Eigen::Vector3d(history.sx[k], history.sy[k], history.sz[k]), sliding, scene.time_step);
-  history.sx[k] = t.slip.x();
-  history.sy[k] = t.slip.y();
-  history.sz[k] = t.slip.z();
+  const bool springs = !history.rx.empty();
+  ContactHistory h{Eigen::Vector3d(history.sx[k], history.sy[k], history.sz[k]),
+                   springs ? Eigen::Vector3d(history.rx[k], history.ry[k], history.rz[k])
+                           : Eigen::Vector3d::Zero()};
+  const ContactFriction t = contact_friction(
+      law, c, n, g.r_star, g.m_star, g.overlap, normal, sliding, spin_i - spin_j,
+      [&] { return p.inverse_inertia(i) + p.inverse_inertia(j); }, rolling, h, scene.time_step);
+  history.sx[k] = h.slip.x();
+  history.sy[k] = h.slip.y();
+  history.sz[k] = h.slip.z();
+  if (springs) {
+    history.rx[k] = h.rolling_spring.x();
+    history.ry[k] = h.rolling_spring.y();
+    history.rz[k] = h.rolling_spring.z();
+  }
   out.fx[k] += t.force.x();
   out.fy[k] += t.force.y();
   out.fz[k] += t.force.z();
@@ -162,58 +184,81 @@ template <bool kFriction>
   out.cz[k] = per_lever.z();
   out.overlap[k] = g.overlap;
   if (!rolling) return;
-  const Eigen::Vector3d roll =
-      c.rolling_friction == 0.0  // spares the inertia's division where the pair does not roll
-          ? Eigen::Vector3d::Zero()
-          : rolling_torque(c.rolling_friction, g.r_star, load, spin_i - spin_j,
-                           effective_inertia(p.inverse_inertia(i), p.inverse_inertia(j)),
-                           scene.time_step);
-  out.roll_x[k] = roll.x();
-  out.roll_y[k] = roll.y();
-  out.roll_z[k] = roll.z();
+  out.roll_x[k] = t.rolling_torque.x();
+  out.roll_y[k] = t.rolling_torque.y();
+  out.roll_z[k] = t.rolling_torque.z();
 }
 
-/// Contact k = (i, j) of pass 1 (overlap > 0): the normal law, the contact's heat flow in thermal
-/// runs and, with kFriction, friction and rolling; results stored in slot k.
+/// Contact k = (i, j) of pass 1 (in contact, or a JKR contact that still holds): the pair's
+/// contact model, the contact's heat flow in thermal runs and, with kFriction, friction and
+/// rolling; results stored in slot k.
 template <bool kFriction, class Law>
-[[gnu::always_inline]] inline NormalForce evaluate_pair(const Particles& p, const Scene& scene,
-                                                        const Law& law, const PairGeometry& g,
-                                                        bool criterion_met, std::size_t i,
-                                                        std::size_t j, std::uint32_t k,
-                                                        bool thermal, bool rolling, PairForces& out,
-                                                        PairHistory& history) {
+[[gnu::always_inline]] inline ContactNormal evaluate_pair(
+    const Particles& p, const Scene& scene, const Law& law, const PairCoefficients& coefficients,
+    const PairGeometry& g, bool criterion_met, std::size_t i, std::size_t j, std::uint32_t k,
+    bool thermal, bool rolling, PairForces& out, PairHistory& history) {
   const double overlap_rate =
       approach_rate(p.vx[j] - p.vx[i], p.vy[j] - p.vy[i], p.vz[j] - p.vz[i], g.nx, g.ny, g.nz);
-  const PairCoefficients& coefficients = scene.pair(p.material[i], p.material[j]);
   const auto pair = law.pair(coefficients, g.r_star, g.m_star);
-  const NormalForce f = law.force(pair, g.overlap, overlap_rate, criterion_met);
+  const ContactNormal f = contact_normal(law, coefficients, pair, g.r_star, g.m_star, g.overlap,
+                                         overlap_rate, criterion_met);
   out.fx[k] = f.force * g.nx;
   out.fy[k] = f.force * g.ny;
   out.fz[k] = f.force * g.nz;
   out.bonded[k] = f.bonded ? 1 : 0;
+  if (!history.joined.empty()) history.joined[k] = f.joined ? 1 : 0;
   if (thermal) {
-    const double h = spot_conductance(coefficients.conductivity, spot_radius(g.r_star, g.overlap));
+    // A JKR contact held apart (overlap <= 0) touches on no spot: it conducts nothing.
+    const double spot = f.contact_radius > 0.0 ? f.contact_radius
+                        : g.overlap > 0.0      ? spot_radius(g.r_star, g.overlap)
+                                               : 0.0;
+    const double h = spot_conductance(coefficients.conductivity, spot);
     out.conductance[k] = h;
     out.heat[k] = contact_heat_flow(h, p.temperature[i], p.temperature[j]);
   }
   if constexpr (kFriction) {
-    pair_friction(p, scene, coefficients, law.friction_load(pair, f, g.overlap), g, i, j, k,
-                  rolling, out, history);
+    pair_friction(p, scene, law, coefficients, f, g, i, j, k, rolling, out, history);
   }
   return f;
 }
 
-/// Pass 1: the normal-force law @p law for every candidate pair of @p list (force on i stored; j
-/// gets minus).
-/// @param criterion_met callable (i, j, k) -> bool, the bonding criterion of pair k = (i, j); it
-/// may read out.bonded[k], which still holds the pair's previous state.
+/// The bonding criterion of eq. 25, chosen per material pair (PairCoefficients::criterion).
+struct BondingCriterion {
+  const Particles& particles;
+  const std::vector<std::uint8_t>& bonded;  ///< the pairs' bond flags of the previous evaluation
+  /// Caller's per-pair decision for criterion kPairFlag (by particle ids); null when no material
+  /// pair has that criterion.
+  const std::function<bool(std::int64_t, std::int64_t)>* pair_flag;
+
+  /// Whether pair k = (i, j) with coefficients @p c may bond now.
+  [[gnu::always_inline]] bool operator()(const PairCoefficients& c, std::size_t i, std::size_t j,
+                                         std::uint32_t k) const {
+    switch (c.criterion) {
+      case BondCriterion::kAlways:
+        return true;
+      case BondCriterion::kNever:
+        return false;
+      case BondCriterion::kTemperature:
+        return temperature_criterion(bonded[k] != 0, particles.temperature[i],
+                                     particles.temperature[j], c.bond_temperature);
+      case BondCriterion::kPairFlag:
+        return (*pair_flag)(particles.id[i], particles.id[j]);
+    }
+    return false;
+  }
+};
+
+/// Pass 1: every candidate pair of @p list with the contact model of its material pair and the
+/// normal-force law @p law (force on i stored; j gets minus).
+/// @param criterion_met the bonding criterion; it reads out.bonded[k], which still holds the
+/// pair's previous state.
 /// In thermal runs each contact also gets its conductance and the heat flow into i.
 /// With kFriction the pair also gets the tangential law (history in @p history) and rolling
 /// resistance, and torques are stored; without it that code is compiled out.
-template <bool kFriction, class Law, class Criterion>
+template <bool kFriction, class Law>
 ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const NeighborList& list,
-                                   const Law& law, Criterion criterion_met, PairForces& out,
-                                   PairHistory& history) {
+                                   const Law& law, const BondingCriterion& criterion_met,
+                                   PairForces& out, PairHistory& history) {
   const std::size_t n = p.size();
   std::size_t contacts = 0;
   std::size_t bonds = 0;
@@ -223,6 +268,7 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
   double max_fraction = 0.0;
   const bool thermal = p.thermal();
   const bool rolling = kFriction && !out.roll_x.empty();
+  const bool contact_history = !history.joined.empty();
   constexpr std::size_t kChunk = 64;     // particles per scheduling unit
   constexpr std::uint32_t kBlock = 128;  // pairs per geometry block
   const std::size_t chunks = (n + kChunk - 1) / kChunk;
@@ -237,13 +283,18 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
         [&](std::uint32_t s, std::size_t i, std::size_t j,
             std::uint32_t k) __attribute__((always_inline)) {
           const PairGeometry g = geometry.at(s);
-          if (!(g.overlap > 0.0)) {
-            broken += release_pair<kFriction>(k, thermal, rolling, out, history);
+          if (!(g.overlap > 0.0) &&
+              !(contact_history && history.joined[k] != 0 &&
+                g.overlap >
+                    separation_overlap(scene.pair(p.material[i], p.material[j]), g.r_star))) {
+            broken += release_pair<kFriction>(k, thermal, rolling, contact_history, out, history);
             return;
           }
           const bool was_bonded = out.bonded[k] != 0;
-          const NormalForce f = evaluate_pair<kFriction>(p, scene, law, g, criterion_met(i, j, k),
-                                                         i, j, k, thermal, rolling, out, history);
+          const PairCoefficients& c = scene.pair(p.material[i], p.material[j]);
+          const ContactNormal f =
+              evaluate_pair<kFriction>(p, scene, law, c, g, criterion_met(c, i, j, k), i, j, k,
+                                       thermal, rolling, out, history);
           formed += f.bonded && !was_bonded ? 1 : 0;
           broken += !f.bonded && was_bonded ? 1 : 0;
           ++contacts;
@@ -262,70 +313,82 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
   return summary;
 }
 
-/// Friction and rolling resistance of particle i on a surface (slot @p slot of p.wall_slip) at
-/// @p overlap, pressed by @p load: adds the tangential force to @p force and sets @p torque.
-/// @param n_ij unit normal from the particle into the surface.
-inline void surface_friction(Particles& p, const Scene& scene, const PairCoefficients& c,
-                             double load, std::size_t slot, std::size_t i, double overlap,
-                             const Eigen::Vector3d& n_ij, const Eigen::Vector3d& surface_velocity,
-                             Eigen::Vector3d& force, Eigen::Vector3d& torque) {
-  double* slip = &p.wall_slip[(i * static_cast<std::size_t>(p.walls) + slot) * 3];
-  const Eigen::Vector3d velocity(p.vx[i], p.vy[i], p.vz[i]);
-  const Eigen::Vector3d lever = surface_lever(p.radius[i], overlap) * n_ij;
-  const Eigen::Vector3d spin(p.wx[i], p.wy[i], p.wz[i]);
-  const Eigen::Vector3d sliding =
-      sliding_velocity(surface_contact_velocity(velocity, spin, lever, surface_velocity), n_ij);
-  const double k_t = mindlin_stiffness(c.shear_modulus, spot_radius(p.radius[i], overlap));
-  const double d_t = tangential_damping(c.contact_damping, p.mass[i], k_t);
-  const TangentialForce t =
-      tangential_force(k_t, d_t, c.friction, load, n_ij, Eigen::Vector3d(slip[0], slip[1], slip[2]),
-                       sliding, scene.time_step);
-  slip[0] = t.slip.x();
-  slip[1] = t.slip.y();
-  slip[2] = t.slip.z();
-  force += t.force;
-  torque = moment(lever, t.force) + rolling_torque(c.rolling_friction, p.radius[i], load, spin,
-                                                   effective_inertia(p.inverse_inertia(i), 0.0),
-                                                   scene.time_step);
+/// Releases the history of particle i against boundary slot @p slot: no contact there.
+[[gnu::always_inline]] inline void release_surface(Particles& p, std::size_t slot, std::size_t i,
+                                                   bool friction) {
+  const std::size_t wall = i * static_cast<std::size_t>(p.walls) + slot;
+  if (friction) {
+    double* slip = &p.wall_slip[wall * 3];
+    slip[0] = slip[1] = slip[2] = 0.0;
+  }
+  if (p.contact_history) {
+    double* held = &p.wall_contact[wall * Particles::kWallContactValues];
+    held[0] = held[1] = held[2] = held[3] = 0.0;
+  }
 }
 
-/// Contact of particle i with a surface of material @p material: the normal law's surface contact
-/// (r* = r_i, m* = m_i: a wall or tool is a sphere of infinite radius and mass) and, with
-/// kFriction, the tangential law (history in p.wall_slip slot @p slot) and rolling resistance.
+/// Contact of particle i with a surface of material @p material: the contact model of the pair
+/// (particle material, @p material) with the surface as a partner of infinite radius and mass
+/// (r* = r_i, m* = m_i, 1/I = 0) that never bonds, the same functions as a particle pair;
+/// history in p.wall_slip and p.wall_contact slot @p slot.
 /// @param gap centre-to-surface distance; @param normal unit, from the surface to the centre;
 /// @param surface_velocity velocity of the surface material at the contact.
-/// Returns the overlap (<= 0: no contact, zero force and torque, history released).
+/// Returns the overlap (<= 0 and no JKR contact holding: zero force and torque, history
+/// released).
 template <bool kFriction, class Law>
 double surface_contact(Particles& p, const Scene& scene, const Law& law, int material,
                        std::size_t slot, std::size_t i, double gap, const Eigen::Vector3d& normal,
                        const Eigen::Vector3d& surface_velocity, Eigen::Vector3d& force,
                        Eigen::Vector3d& torque) {
   const double overlap = surface_overlap(p.radius[i], gap);
+  const PairCoefficients& c = scene.pair(p.material[i], material);
+  const std::size_t wall = i * static_cast<std::size_t>(p.walls) + slot;
+  double* held =
+      p.contact_history ? &p.wall_contact[wall * Particles::kWallContactValues] : nullptr;
   torque.setZero();
-  if (overlap <= 0.0) {
+  if (overlap <= 0.0 &&
+      !(held != nullptr && held[3] != 0.0 && overlap > separation_overlap(c, p.radius[i]))) {
     force.setZero();
-    if constexpr (kFriction) {
-      double* slip = &p.wall_slip[(i * static_cast<std::size_t>(p.walls) + slot) * 3];
-      slip[0] = slip[1] = slip[2] = 0.0;
-    }
+    release_surface(p, slot, i, kFriction);
     return overlap;
   }
-  const PairCoefficients& c = scene.pair(p.material[i], material);
-  const auto pair = law.surface_pair(c, p.radius[i], p.mass[i]);
+  const auto pair = law.pair(c, p.radius[i], p.mass[i]);
   const Eigen::Vector3d velocity(p.vx[i], p.vy[i], p.vz[i]);
+  const ContactNormal n =
+      contact_normal(law, c, pair, p.radius[i], p.mass[i], overlap,
+                     surface_approach_rate(velocity, surface_velocity, normal), false);
+  if (held != nullptr) held[3] = n.joined ? 1.0 : 0.0;
   // n_ij points from the particle into the surface, i.e. along -normal.
-  const double f_n =
-      law.surface_force(pair, overlap, surface_approach_rate(velocity, surface_velocity, normal));
-  force = -f_n * normal;
+  const Eigen::Vector3d n_ij = -normal;
+  force = n.force * n_ij;
   if constexpr (kFriction) {
-    surface_friction(p, scene, c, law.surface_friction_load(f_n), slot, i, overlap, -normal,
-                     surface_velocity, force, torque);
+    double* slip = &p.wall_slip[wall * 3];
+    const Eigen::Vector3d lever = surface_lever(p.radius[i], overlap) * n_ij;
+    const Eigen::Vector3d spin(p.wx[i], p.wy[i], p.wz[i]);
+    const Eigen::Vector3d sliding =
+        sliding_velocity(surface_contact_velocity(velocity, spin, lever, surface_velocity), n_ij);
+    ContactHistory h{
+        Eigen::Vector3d(slip[0], slip[1], slip[2]),
+        held != nullptr ? Eigen::Vector3d(held[0], held[1], held[2]) : Eigen::Vector3d::Zero()};
+    const ContactFriction t = contact_friction(
+        law, c, n, p.radius[i], p.mass[i], overlap, n_ij, sliding, spin,
+        [&] { return p.inverse_inertia(i); }, true, h, scene.time_step);
+    slip[0] = h.slip.x();
+    slip[1] = h.slip.y();
+    slip[2] = h.slip.z();
+    if (held != nullptr) {
+      held[0] = h.rolling_spring.x();
+      held[1] = h.rolling_spring.y();
+      held[2] = h.rolling_spring.z();
+    }
+    force += t.force;
+    torque = moment(lever, t.force) + t.rolling_torque;
   }
   return overlap;
 }
 
 /// Contact of particle i with boundary @p b: the walls first, then the moving bodies. Returns the
-/// overlap when positive; without contact, a value <= 0 (for a body far away, just 0).
+/// overlap when in contact; without contact, a value <= 0 (for a body far away, just 0).
 template <bool kFriction, class Law>
 double boundary_contact(Particles& p, const Scene& scene, const Law& law, std::size_t b,
                         std::size_t i, Eigen::Vector3d& force, Eigen::Vector3d& torque) {
@@ -337,15 +400,13 @@ double boundary_contact(Particles& p, const Scene& scene, const Law& law, std::s
   }
   const Body& body = scene.bodies[b - scene.walls.size()];
   const Eigen::Vector3d centre(p.x[i], p.y[i], p.z[i]);
-  if (surely_apart(body, centre, p.radius[i])) {
+  // A JKR contact reaches past touching by up to the scene's contact range.
+  if (surely_apart(body, centre, p.radius[i] + scene.contact_range)) {
     // Most particles are far from a tool: skip its exact distance and the law. The result is
     // that of surface_contact without contact; the overlap returned is only known to be <= 0.
     force.setZero();
     torque.setZero();
-    if constexpr (kFriction) {
-      double* slip = &p.wall_slip[(i * static_cast<std::size_t>(p.walls) + b) * 3];
-      slip[0] = slip[1] = slip[2] = 0.0;
-    }
+    release_surface(p, b, i, kFriction);
     return 0.0;
   }
   const SurfacePoint surface = nearest_surface(body, centre);
@@ -417,7 +478,15 @@ template <bool kFriction, class Law>
   for (std::size_t w = 0; w < boundaries; ++w) {
     Eigen::Vector3d wall_f, wall_tau;
     const double overlap = boundary_contact<kFriction>(p, scene, law, w, i, wall_f, wall_tau);
-    if (overlap <= 0.0) continue;
+    if (overlap <= 0.0) {
+      // A JKR contact held apart still pulls; it conducts no heat and counts as no contact.
+      if (p.contact_history) {
+        load.force += wall_f;
+        load.torque += wall_tau;
+        for (int axis = 0; axis < 3; ++axis) block_load[w * 3 + axis] += wall_f[axis];
+      }
+      continue;
+    }
     block_load[w * 3 + 0] += wall_f.x();
     block_load[w * 3 + 1] += wall_f.y();
     block_load[w * 3 + 2] += wall_f.z();

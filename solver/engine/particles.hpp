@@ -44,6 +44,12 @@ struct Particles {
   /// Tangential spring elongation against each wall, 3 values per wall, wall_count() per particle.
   std::vector<double> wall_slip;
   int walls = 0;  ///< walls with a slot in wall_slip
+  /// Per wall and particle, when contact_history: the EPSD rolling spring torque (3 values) and
+  /// 1 while a JKR contact holds (a cohesive contact outlives zero overlap), 4 values per wall.
+  std::vector<double> wall_contact;
+  /// Whether some material pair keeps history beyond the tangential spring (EPSD rolling or JKR
+  /// cohesion): then the kContactHistory fields are in use.
+  bool contact_history = false;
   // Thermal state; these arrays are empty when the case has no `thermal:` block.
   std::vector<double> temperature;        ///< [K]
   std::vector<double> peak_temperature;   ///< highest temperature reached so far [K]
@@ -53,11 +59,17 @@ struct Particles {
   /// Whether temperatures are tracked.
   bool thermal() const { return !temperature.empty(); }
 
-  /// Give every particle a zeroed tangential-history slot for each of @p wall_count walls.
+  /// Give every particle zeroed history slots (tangential, and the contact_history ones when in
+  /// use) for each of @p wall_count walls.
   void set_wall_count(int wall_count) {
     walls = wall_count;
     wall_slip.assign(size() * static_cast<std::size_t>(3 * wall_count), 0.0);
+    wall_contact.assign(
+        contact_history ? size() * static_cast<std::size_t>(kWallContactValues * wall_count) : 0,
+        0.0);
   }
+  /// Values per wall of wall_contact: rolling spring x, y, z and the JKR flag.
+  static constexpr int kWallContactValues = 4;
 
   /// Number of particles.
   std::size_t size() const { return id.size(); }
@@ -88,7 +100,9 @@ enum ParticleFieldFlag : unsigned {
   kCheckpointed = 1U << 1U,  ///< written to and read from checkpoints (exact restarts)
   kLastGood = 1U << 2U,      ///< copied by keep_last_good (the fields of a final-state file)
   kThermal = 1U << 3U,       ///< present (non-empty) only when temperatures are tracked
-  kPerWall = 1U << 4U,       ///< 3 values per wall slot and particle (Particles::walls), not 1
+  kPerWall = 1U << 4U,       ///< wall_values per wall slot and particle (Particles::walls), not 1
+  /// Present (non-empty) only when Particles::contact_history (EPSD rolling or JKR cohesion).
+  kContactHistory = 1U << 5U,
 };
 
 /// Pointer to one array of Particles, of any of the element types the table holds.
@@ -114,6 +128,7 @@ struct ParticleField {
   /// Place among the particle file's point arrays (ascending); the derived arrays of the caller
   /// sit at kVtkDerivedScalarsOrder and kVtkDerivedVectorsOrder.
   int vtk_order = 0;
+  int wall_values = 3;  ///< values per wall slot of a kPerWall field
 };
 
 /// Every particle array, once. Table order is checkpoint order within each of its sections
@@ -142,6 +157,13 @@ inline constexpr ParticleField kParticleFields[] = {
     {"dy", &Particles::dy, kReordered | kCheckpointed, "displacement", 1, 23},
     {"dz", &Particles::dz, kReordered | kCheckpointed, "displacement", 2, 23},
     {"wall_slip", &Particles::wall_slip, kReordered | kCheckpointed | kPerWall},
+    {"wall_contact",
+     &Particles::wall_contact,
+     kReordered | kCheckpointed | kPerWall | kContactHistory,
+     {},
+     -1,
+     0,
+     Particles::kWallContactValues},
     {"temperature", &Particles::temperature, kReordered | kCheckpointed | kThermal, "temperature",
      -1, 11},
     {"peak_temperature", &Particles::peak_temperature, kReordered | kCheckpointed | kThermal,
@@ -156,14 +178,17 @@ constexpr bool has(const ParticleField& field, unsigned flags) {
   return (field.flags & flags) == flags;
 }
 
-/// Values @p field holds per particle of @p p: 3 per wall slot for kPerWall fields, else 1.
+/// Values @p field holds per particle of @p p: wall_values per wall slot for kPerWall fields,
+/// else 1.
 inline std::size_t values_per_particle(const ParticleField& field, const Particles& p) {
-  return has(field, kPerWall) ? static_cast<std::size_t>(3 * p.walls) : 1;
+  return has(field, kPerWall) ? static_cast<std::size_t>(field.wall_values * p.walls) : 1;
 }
 
-/// Whether @p field is in use in @p p: thermal fields only when temperatures are tracked.
+/// Whether @p field is in use in @p p: thermal fields only when temperatures are tracked, contact
+/// history fields only when some pair keeps it.
 inline bool in_use(const ParticleField& field, const Particles& p) {
-  return !has(field, kThermal) || p.thermal();
+  return (!has(field, kThermal) || p.thermal()) &&
+         (!has(field, kContactHistory) || p.contact_history);
 }
 
 /// Consistency of the table, checked at compile time: unique names; a vector's three components
@@ -200,9 +225,8 @@ inline std::size_t Particles::add(std::int64_t particle_id, std::int32_t materia
                                   double particle_radius, double particle_mass,
                                   const double position[3], const double velocity[3]) {
   const std::size_t index = size();
-  const bool tracked = thermal();
   for (const ParticleField& field : kParticleFields) {
-    if (has(field, kThermal) && !tracked) continue;
+    if (!in_use(field, *this)) continue;
     const std::size_t count = values_per_particle(field, *this);
     std::visit([&](auto member) { (this->*member).resize((this->*member).size() + count); },
                field.member);

@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <variant>
 
+#include "solver/models/contact_laws.hpp"
 #include "solver/models/heat_law.hpp"
 #include "solver/setup/message_number.hpp"
 
@@ -14,33 +15,68 @@ double sphere_mass(double radius, double density) {
   return 4.0 / 3.0 * std::numbers::pi * radius * radius * radius * density;
 }
 
+const ContactModel& Case::contact_model(int a, int b) const {
+  for (const Interaction& entry : interactions) {
+    if ((entry.first_material == a && entry.second_material == b) ||
+        (entry.first_material == b && entry.second_material == a)) {
+      return entry.model;
+    }
+  }
+  return contact;
+}
+
 PairCoefficients Case::pair_coefficients(int a, int b) const {
   const Material& m_a = materials[static_cast<std::size_t>(a)];
   const Material& m_b = materials[static_cast<std::size_t>(b)];
+  const ContactModel& model = contact_model(a, b);
+  const BondModel& bond = model.bond;
   const double e_star = effective_modulus(m_a.youngs_modulus, m_a.poisson_ratio, m_b.youngs_modulus,
                                           m_b.poisson_ratio);
   const double strength =
       bond.input == AdhesionInput::kStiffness ? bond.stiffness : bond.equilibrium_overlap;
-  PairCoefficients c = make_pair_coefficients(e_star, contact_damping, bond.damping_ratio,
-                                              bond.alpha, bond.input, strength);
+  const double xi_con = model.restitution > 0.0
+                            ? with_normal_law(normal_law,
+                                              [&](const auto& law) {
+                                                return law.damping_ratio_for(model.restitution);
+                                              })
+                            : model.damping_ratio;
+  PairCoefficients c =
+      make_pair_coefficients(e_star, xi_con, bond.damping_ratio, bond.alpha, bond.input, strength);
+  c.restitution = model.restitution;
   c.shear_modulus = effective_shear_modulus(m_a.youngs_modulus, m_a.poisson_ratio,
                                             m_b.youngs_modulus, m_b.poisson_ratio);
-  c.friction = friction;
-  c.rolling_friction = rolling_friction;
+  c.friction = model.friction;
+  c.rolling_friction = model.rolling_friction;
+  c.rolling_model = model.rolling_model;
+  c.rolling_damping = model.rolling_damping;
+  c.cohesion = model.cohesion;
+  c.cohesion_energy = model.cohesion_energy;
+  c.criterion = bond.criterion;
+  c.bond_temperature = bond.temperature;
   c.conductivity = harmonic_conductivity(m_a.thermal_conductivity, m_b.thermal_conductivity);
   return c;
 }
 
-NormalLawSpec normal_law_of(const Case& description) {
-  if (const auto* bond = std::get_if<BondLawSpec>(&description.normal_law);
-      bond != nullptr && !(bond->alpha == description.bond.alpha)) {
-    throw std::invalid_argument(description.source + ": the bond law's alpha (" +
-                                message_number(bond->alpha) + ") differs from bond.alpha (" +
-                                message_number(description.bond.alpha) +
-                                "): set both (Case::normal_law and Case::bond)");
-  }
-  return description.normal_law;
+bool needs_contact_history(const std::vector<PairCoefficients>& table) {
+  return std::any_of(table.begin(), table.end(), [](const PairCoefficients& c) {
+    return c.cohesion == CohesionModel::kJkr ||
+           (c.rolling_model == RollingModel::kEpsd && c.rolling_friction > 0.0);
+  });
 }
+
+namespace {
+
+/// Largest distance beyond touching at which a JKR contact of @p table still holds, for particles
+/// of radius up to @p max_radius (a particle on a boundary has r* = r, the largest r*).
+double cohesion_range(const std::vector<PairCoefficients>& table, double max_radius) {
+  double range = 0.0;
+  for (const PairCoefficients& c : table) {
+    range = std::max(range, -separation_overlap(c, max_radius));
+  }
+  return range;
+}
+
+}  // namespace
 
 Scene build_scene(const Case& description) {
   Scene scene;
@@ -50,8 +86,7 @@ Scene build_scene(const Case& description) {
       scene.pair_table.push_back(description.pair_coefficients(a, b));
     }
   }
-  scene.normal_law = normal_law_of(description);
-  scene.criterion = description.bond.criterion;
+  scene.normal_law = description.normal_law;
   scene.gravity = description.gravity;
   scene.time_step = description.time_step;
   scene.walls = description.walls;
@@ -75,7 +110,11 @@ Scene build_scene(const Case& description) {
     scene.domain.min = lo.array() - pad;
     scene.domain.max = hi.array() + pad;
   }
-  scene.friction = description.friction > 0.0 || description.rolling_friction > 0.0;
+  scene.friction = std::any_of(
+      scene.pair_table.begin(), scene.pair_table.end(),
+      [](const PairCoefficients& c) { return c.friction > 0.0 || c.rolling_friction > 0.0; });
+  scene.contact_range = cohesion_range(scene.pair_table, max_radius);
+  scene.particles.contact_history = needs_contact_history(scene.pair_table);
   scene.bodies = description.bodies;
   scene.particles.set_wall_count(static_cast<int>(scene.walls.size() + scene.bodies.size()));
   std::int64_t next_id = 0;
@@ -101,7 +140,6 @@ Scene build_scene(const Case& description) {
     for (const Material& m : description.materials) {
       scene.emissivity.push_back(thermal.radiation ? m.emissivity : 0.0);
     }
-    scene.bond_temperature = description.bond.temperature;
     scene.laser = description.laser;
   }
   return scene;

@@ -23,30 +23,37 @@ struct Scene {
   int material_count = 0;
   std::vector<PairCoefficients> pair_table;  ///< material_count^2 entries, row-major
   NormalLawSpec normal_law;                  ///< the normal-force law and its run-wide parameters
-  BondCriterion criterion = BondCriterion::kAlways;
   Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
   double time_step = 0.0;
   Domain domain;                 ///< cell-grid bounds and periodic axes
   std::vector<PlaneWall> walls;  ///< static planes (a box container is six)
   std::vector<Body> bodies;      ///< moving tools (blade, roller), after the walls in every slot
   double skin = 0.0;             ///< Verlet skin [m]
-  int reorder_interval = 20;     ///< sort particles by cell every this many list builds (0: never)
-  bool friction = false;         ///< tangential law, rolling resistance and rotation are on
+  /// How far beyond touching a contact can hold [m]: the largest JKR separation distance, 0
+  /// without JKR. Neighbor lists and tool tests reach this much further.
+  double contact_range = 0.0;
+  int reorder_interval = 20;  ///< sort particles by cell every this many list builds (0: never)
+  bool friction = false;      ///< tangential law, rolling resistance and rotation are on
   double max_overlap_fraction = 0.25;  ///< overlap / smaller radius beyond which a run stops
   // Heat transfer (particles.thermal() tells whether it is on).
   double ambient_temperature = 0.0;     ///< [K]
   double convection_coefficient = 0.0;  ///< h [W/(m^2 K)]
   std::vector<double> emissivity;       ///< per material, 0 without radiation
-  double bond_temperature = 0.0;        ///< [K] of criterion kTemperature
   std::optional<Laser> laser;
 
-  /// Coefficients of material pair (a, b).
   /// Whether any material pair has rolling resistance (then pairs store a rolling torque).
   bool rolling() const {
     return friction &&
            std::any_of(pair_table.begin(), pair_table.end(),
                        [](const PairCoefficients& c) { return c.rolling_friction != 0.0; });
   }
+  /// Whether any material pair bonds by criterion kPairFlag (a caller's per-pair decision).
+  bool needs_pair_flag() const {
+    return std::any_of(pair_table.begin(), pair_table.end(), [](const PairCoefficients& c) {
+      return c.criterion == BondCriterion::kPairFlag;
+    });
+  }
+  /// Coefficients of material pair (a, b).
   const PairCoefficients& pair(int a, int b) const {
     return pair_table[static_cast<std::size_t>(a * material_count + b)];
   }
@@ -55,8 +62,9 @@ struct Scene {
 /// Build the scene of a validated case; particle ids are their list positions.
 Scene build_scene(const Case& description);
 
-/// The normal-force law a validated case chooses, with its run-wide parameters.
-NormalLawSpec normal_law_of(const Case& description);
+/// Whether some pair of @p table keeps history beyond the tangential spring: EPSD rolling
+/// springs or JKR contacts (then Particles::contact_history and PairHistory carry it).
+bool needs_contact_history(const std::vector<PairCoefficients>& table);
 
 /// Mass of a sphere of the given radius and density.
 double sphere_mass(double radius, double density);

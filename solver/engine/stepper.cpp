@@ -13,10 +13,10 @@ namespace bondem {
 
 Stepper::Stepper(Scene& scene, PairFlag pair_flag)
     : scene_(scene), pair_flag_(std::move(pair_flag)) {
-  if (scene_.criterion == BondCriterion::kPairFlag && !pair_flag_) {
+  if (scene_.needs_pair_flag() && !pair_flag_) {
     throw std::invalid_argument("bond criterion 'pair flag' needs a pair-flag supplier");
   }
-  list_.build(scene_.particles, scene_.domain, scene_.skin, scene_.reorder_interval > 0);
+  list_.build(scene_.particles, scene_.domain, list_reach(), scene_.reorder_interval > 0);
   apply_slips({});
   compute_forces(std::numeric_limits<double>::quiet_NaN());
   bonds_formed_ = static_cast<std::int64_t>(contacts_.bonds_formed);
@@ -24,12 +24,12 @@ Stepper::Stepper(Scene& scene, PairFlag pair_flag)
 
 Stepper::Stepper(Scene& scene, const StepperState& restored, PairFlag pair_flag)
     : scene_(scene), pair_flag_(std::move(pair_flag)) {
-  if (scene_.criterion == BondCriterion::kPairFlag && !pair_flag_) {
+  if (scene_.needs_pair_flag() && !pair_flag_) {
     throw std::invalid_argument("bond criterion 'pair flag' needs a pair-flag supplier");
   }
   // Forces come with the particles: they were evaluated with the half-step velocities of the
   // interrupted step, which a fresh evaluation could not reproduce.
-  list_.restore(scene_.particles, scene_.domain, scene_.skin, restored.list);
+  list_.restore(scene_.particles, scene_.domain, list_reach(), restored.list);
   apply_slips(restored.slips);
   if (restored.bodies.size() != 6 * scene_.bodies.size()) {
     throw std::invalid_argument("saved state does not match the case's moving bodies");
@@ -50,40 +50,11 @@ Stepper::Stepper(Scene& scene, const StepperState& restored, PairFlag pair_flag)
 }
 
 template <bool kFriction, class Law>
-ContactSummary Stepper::dispatch_criterion(const Law& law) {
-  const Particles& p = scene_.particles;
-  switch (scene_.criterion) {
-    case BondCriterion::kAlways:
-      return compute_pair_forces<kFriction>(
-          p, scene_, list_, law, [](std::size_t, std::size_t, std::size_t) { return true; },
-          pair_forces_, history_);
-    case BondCriterion::kNever:
-      return compute_pair_forces<kFriction>(
-          p, scene_, list_, law, [](std::size_t, std::size_t, std::size_t) { return false; },
-          pair_forces_, history_);
-    case BondCriterion::kTemperature: {
-      const double bond_temperature = scene_.bond_temperature;
-      const std::vector<double>& t = p.temperature;
-      const std::vector<std::uint8_t>& bonded = pair_forces_.bonded;
-      return compute_pair_forces<kFriction>(
-          p, scene_, list_, law,
-          [&](std::size_t i, std::size_t j, std::size_t k) {
-            return temperature_criterion(bonded[k] != 0, t[i], t[j], bond_temperature);
-          },
-          pair_forces_, history_);
-    }
-    case BondCriterion::kPairFlag:
-      return compute_pair_forces<kFriction>(
-          p, scene_, list_, law,
-          [&](std::size_t i, std::size_t j, std::size_t) { return pair_flag_(p.id[i], p.id[j]); },
-          pair_forces_, history_);
-  }
-  return {};
-}
-
-template <bool kFriction, class Law>
 ContactSummary Stepper::evaluate_forces(const Law& law) {
-  ContactSummary pairs = dispatch_criterion<kFriction>(law);
+  const BondingCriterion criterion{scene_.particles, pair_forces_.bonded,
+                                   pair_flag_ ? &pair_flag_ : nullptr};
+  ContactSummary pairs = compute_pair_forces<kFriction>(scene_.particles, scene_, list_, law,
+                                                        criterion, pair_forces_, history_);
   const ContactSummary walls =
       gather_forces<kFriction>(scene_.particles, scene_, list_, law, pair_forces_, wall_forces_);
   pairs.wall_contacts = walls.wall_contacts;
@@ -120,16 +91,28 @@ std::vector<SlipRecord> Stepper::collect_slips() const {
   std::vector<SlipRecord> slips;
   const Particles& p = scene_.particles;
   const bool springs = scene_.friction;
+  const bool extended = !history_.joined.empty();
   list_.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
     const std::uint8_t bonded = pair_forces_.bonded[k];
     const bool loaded =
         springs && (history_.sx[k] != 0.0 || history_.sy[k] != 0.0 || history_.sz[k] != 0.0);
-    if (!loaded && bonded == 0) return;
+    const bool held = extended && (history_.joined[k] != 0 || history_.rx[k] != 0.0 ||
+                                   history_.ry[k] != 0.0 || history_.rz[k] != 0.0);
+    if (!loaded && !held && bonded == 0) return;
+    SlipRecord slip{p.id[i], p.id[j], 0.0, 0.0, 0.0};
+    slip.bonded = bonded;
     if (springs) {
-      slips.push_back({p.id[i], p.id[j], history_.sx[k], history_.sy[k], history_.sz[k], bonded});
-    } else {
-      slips.push_back({p.id[i], p.id[j], 0.0, 0.0, 0.0, bonded});
+      slip.sx = history_.sx[k];
+      slip.sy = history_.sy[k];
+      slip.sz = history_.sz[k];
     }
+    if (extended) {
+      slip.rx = history_.rx[k];
+      slip.ry = history_.ry[k];
+      slip.rz = history_.rz[k];
+      slip.joined = history_.joined[k];
+    }
+    slips.push_back(slip);
   });
   return slips;
 }
@@ -139,7 +122,8 @@ void Stepper::apply_slips(std::vector<SlipRecord> slips) {
   pair_forces_.resize(list_.pair_count(), scene_.friction, scene_.rolling(),
                       scene_.particles.thermal());
   std::fill(pair_forces_.bonded.begin(), pair_forces_.bonded.end(), std::uint8_t{0});
-  if (scene_.friction) history_.resize(list_.pair_count());
+  const bool extended = scene_.particles.contact_history;
+  history_.resize(list_.pair_count(), scene_.friction, extended);
   if (slips.empty()) return;
   // Key each spring by its pair of ids, smaller first; the elongation belongs to the first
   // particle's side, so it changes sign when the list now sees the pair the other way round.
@@ -159,11 +143,19 @@ void Stepper::apply_slips(std::vector<SlipRecord> slips) {
         [&](const SlipRecord& r, const auto& w) { return key(r.first_id, r.second_id) < w; });
     if (found == slips.end() || key(found->first_id, found->second_id) != wanted) return;
     pair_forces_.bonded[k] = found->bonded;
-    if (!scene_.friction) return;
+    // Springs are seen from the first particle: both flip when the list sees the pair reversed.
     const double sign = found->first_id == p.id[i] ? 1.0 : -1.0;
-    history_.sx[k] = sign * found->sx;
-    history_.sy[k] = sign * found->sy;
-    history_.sz[k] = sign * found->sz;
+    if (scene_.friction) {
+      history_.sx[k] = sign * found->sx;
+      history_.sy[k] = sign * found->sy;
+      history_.sz[k] = sign * found->sz;
+    }
+    if (extended) {
+      history_.rx[k] = sign * found->rx;
+      history_.ry[k] = sign * found->ry;
+      history_.rz[k] = sign * found->rz;
+      history_.joined[k] = found->joined;
+    }
   });
 }
 
@@ -171,7 +163,7 @@ void Stepper::rebuild_list() {
   const bool reorder =
       scene_.reorder_interval > 0 && (list_.build_count() % scene_.reorder_interval) == 0;
   std::vector<SlipRecord> slips = collect_slips();
-  list_.build(scene_.particles, scene_.domain, scene_.skin, reorder);
+  list_.build(scene_.particles, scene_.domain, list_reach(), reorder);
   apply_slips(std::move(slips));
 }
 

@@ -36,12 +36,15 @@ class BlowUpError : public std::runtime_error {
   BlowUpCause cause_;
 };
 
-/// What a pair carries from step to step, keyed by ids: its tangential spring (the elongation
-/// is seen from the first particle) and whether it was bonded.
+/// What a pair carries from step to step, keyed by ids: its tangential spring and EPSD rolling
+/// spring (both seen from the first particle), whether it was bonded and whether a JKR contact
+/// holds it.
 struct SlipRecord {
   std::int64_t first_id, second_id;
   double sx, sy, sz;
-  std::uint8_t bonded;
+  double rx = 0.0, ry = 0.0, rz = 0.0;
+  std::uint8_t bonded = 0;
+  std::uint8_t joined = 0;
 };
 
 /// Everything besides the particle arrays that a restarted stepper needs to continue bit for bit.
@@ -115,9 +118,6 @@ class Stepper {
   /// Both passes with the normal-force law @p law; returns what they saw, merged.
   template <bool kFriction, class Law>
   ContactSummary evaluate_forces(const Law& law);
-  /// Pass 1 with the scene's bond criterion compiled in.
-  template <bool kFriction, class Law>
-  ContactSummary dispatch_criterion(const Law& law);
   /// The laser's heat deposit of this step into p.heat_rate (thermal runs with a laser).
   void deposit_laser(double laser_time);
   /// Half kick, drift, and a list rebuild when some particle has moved half the skin.
@@ -133,6 +133,8 @@ class Stepper {
   /// Rebuild the list (reordering the particles every reorder_interval builds), carrying the
   /// per-pair state over by ids.
   void rebuild_list();
+  /// The list's reach beyond touching: the skin plus the range of contacts that outlive it.
+  double list_reach() const { return scene_.skin + scene_.contact_range; }
   BlowUpError diagnose_blow_up(bool finite) const;
   /// Adds the pair past the overlap limit, and a tool touching it, to @p message.
   std::optional<BlowUpError> diagnose_deep_pair(std::ostringstream& message) const;

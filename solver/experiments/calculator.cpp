@@ -35,35 +35,6 @@ double damper_time_step(double stiffness, double mass, double damping_ratio) {
                                std::sqrt(kPackingModeFactor) * damping_ratio);
 }
 
-double hertz_restitution(double damping_ratio) {
-  // Dimensionless eq. 26 (delta in units of L, t of sqrt(m* / (K sqrt L)), K = (4/3) E* sqrt r*,
-  // L chosen so the impact speed is 1): x'' = min(0, -x^(3/2) - 2 sqrt(3/2) xi x^(1/4) x'), the
-  // minimum being the sign rule (a contact never attracts). The rebound speed is e.
-  const double c = 2.0 * std::sqrt(1.5) * damping_ratio;
-  const auto acceleration = [c](double x, double v) {
-    if (x <= 0.0) return 0.0;
-    return std::min(0.0, -x * std::sqrt(x) - c * std::sqrt(std::sqrt(x)) * v);
-  };
-  double x = 0.0;
-  double v = 1.0;
-  double tau = 0.0;
-  // RK4; an undamped impact lasts 3.2 time units. A heavily damped pair creeps out slowly (or
-  // never): past the cap it has lost all but a negligible rebound.
-  constexpr double kCap = 200.0;
-  while (tau < kCap) {
-    const double h = tau < 10.0 ? 1e-4 : 1e-3;
-    const double k1x = v, k1v = acceleration(x, v);
-    const double k2x = v + 0.5 * h * k1v, k2v = acceleration(x + 0.5 * h * k1x, v + 0.5 * h * k1v);
-    const double k3x = v + 0.5 * h * k2v, k3v = acceleration(x + 0.5 * h * k2x, v + 0.5 * h * k2v);
-    const double k4x = v + h * k3v, k4v = acceleration(x + h * k3x, v + h * k3v);
-    x += h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
-    v += h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
-    tau += h;
-    if (x <= 0.0 && v < 0.0) return -v;
-  }
-  return 0.0;
-}
-
 double recommended_time_step(double contact_time, double bond_period, double rayleigh,
                              double damper_step) {
   return std::min({contact_time / kStepsPerOscillation, bond_period / kStepsPerOscillation,
@@ -72,9 +43,10 @@ double recommended_time_step(double contact_time, double bond_period, double ray
 
 PairReport compute_pair_report(const Case& description, int material_a, double radius_a,
                                int material_b, double radius_b, double reference_velocity) {
-  if (!(description.bond.alpha >= 0.0 && description.bond.alpha < 1.5)) {
+  if (!(description.contact_model(material_a, material_b).bond.alpha >= 0.0 &&
+        description.contact_model(material_a, material_b).bond.alpha < 1.5)) {
     std::ostringstream message;
-    message << "bond.alpha = " << description.bond.alpha
+    message << "bond.alpha = " << description.contact_model(material_a, material_b).bond.alpha
             << " is outside [0, 1.5): the bond is unstable unless the contact exponent 3/2 exceeds"
                " the adhesion exponent (eq. 9, 14)";
     throw std::invalid_argument(message.str());
@@ -100,10 +72,10 @@ PairReport compute_pair_report(const Case& description, int material_a, double r
   report.critical_overlap = pair.critical_overlap;
   report.critical_velocity = critical_velocity(e_star, r_star, m_star, pair.critical_overlap);
   // Without bonding there is no bond oscillation to resolve.
-  report.bonding = description.bond.criterion != BondCriterion::kNever;
+  report.bonding = coefficients.criterion != BondCriterion::kNever;
   report.reference_velocity = reference_velocity;
   // The time scales are the normal-force law's: the rule below has no branch per law.
-  const NormalTimeScales scales = with_normal_law(normal_law_of(description), [&](const auto& law) {
+  const NormalTimeScales scales = with_normal_law(description.normal_law, [&](const auto& law) {
     return law.time_scales(coefficients, r_star, m_star, reference_velocity, report.bonding);
   });
   report.impact = scales.impact;
@@ -119,7 +91,9 @@ PairReport compute_pair_report(const Case& description, int material_a, double r
       std::isinf(scales.oscillation_period)
           ? std::numeric_limits<double>::infinity()
           : damper_time_step(scales.oscillation_stiffness, m_star, scales.oscillation_damping);
-  report.restitution = hertz_restitution(coefficients.contact_damping);
+  report.restitution = with_normal_law(description.normal_law, [&](const auto& law) {
+    return law.restitution_for(coefficients.contact_damping);
+  });
   report.recommended_time_step =
       recommended_time_step(report.contact_time, report.bond_period, report.rayleigh_time,
                             std::min(report.contact_damper_step, report.bond_damper_step));
@@ -253,12 +227,14 @@ TimeStepLimit case_time_step_bound(const Case& c) {
                   pair);
       tighten(limit, r.bond_period / kStepsPerOscillation, "T_bond/50" + pair);
       tighten(limit, kRayleighStepFraction * r.rayleigh_time, "0.2 T_Rayleigh" + pair);
+      const PairCoefficients coefficients =
+          c.pair_coefficients(static_cast<int>(a), static_cast<int>(b));
       tighten(limit, r.contact_damper_step,
               "the stability of the contact damper (contact.damping_ratio = " +
-                  message_number(c.contact_damping) + ")" + pair);
+                  message_number(coefficients.contact_damping) + ")" + pair);
       tighten(limit, r.bond_damper_step,
               "the stability of the bond damper (bond.damping_ratio = " +
-                  message_number(c.bond.damping_ratio) + ")" + pair);
+                  message_number(coefficients.bond_damping) + ")" + pair);
     }
   }
   // Walls and tools: a sphere of infinite radius and mass, r* = r and m* = m.
@@ -268,12 +244,13 @@ TimeStepLimit case_time_step_bound(const Case& c) {
       const PairCoefficients coefficients = c.pair_coefficients(static_cast<int>(a), material);
       const double r = smallest[a];
       const double m = sphere_mass(r, c.materials[a].density);
-      const NormalTimeScales scales = with_normal_law(normal_law_of(c), [&](const auto& law) {
+      const NormalTimeScales scales = with_normal_law(c.normal_law, [&](const auto& law) {
         return law.time_scales(coefficients, r, m, speed, false);
       });
       tighten(limit, damper_time_step(scales.contact_stiffness, m, scales.contact_damping),
               "the stability of the contact damper (contact.damping_ratio = " +
-                  message_number(c.contact_damping) + ") of [" + name_of(a) + "] on " + what);
+                  message_number(coefficients.contact_damping) + ") of [" + name_of(a) + "] on " +
+                  what);
     }
   };
   for (const PlaneWall& wall : c.walls) surface(wall.material, "wall '" + wall.name + "'");

@@ -37,10 +37,6 @@ inline constexpr double kPackingModeFactor = 4.0;
 /// with the square root of the factor) [s].
 double damper_time_step(double stiffness, double mass, double damping_ratio);
 
-/// Normal coefficient of restitution of a damped Hertz impact (eq. 26, Tsuji-type damping
-/// 2 xi sqrt(m* k_con)) without adhesion: independent of the impact speed, a function of xi alone.
-double hertz_restitution(double damping_ratio);
-
 /// Largest distance a tool may move in one step, as a fraction of the smallest particle radius:
 /// a step then pushes a particle into a tool by at most this, far below the blow-up limit
 /// (limits.max_overlap_fraction, 0.25 by default), so the contact law has steps to react.
@@ -66,7 +62,7 @@ struct PairReport {
   double contact_stiffness;      ///< k_con = 2 E* sqrt(r* max_overlap), the stiffest impact [N/m]
   double contact_damper_step;    ///< damper_time_step() of k_con with xi_con [s]
   double bond_damper_step;       ///< damper_time_step() of k* with xi_bond; inf without bonds [s]
-  double restitution;            ///< hertz_restitution(xi_con) [-]
+  double restitution;            ///< of the normal law at xi_con (restitution.hpp) [-]
   double recommended_time_step;  ///< see recommended_time_step()
 };
 

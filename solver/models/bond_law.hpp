@@ -69,6 +69,7 @@ struct BondPair {
   double critical_overlap;     ///< delta_crit, eq. 14  [m]
   double contact_damping;      ///< xi_con, eq. 26
   double bond_damping;         ///< xi_bond, eq. 23
+  double alpha = 1.0;          ///< alpha_adh of the pair's bond
 };
 
 /// Result of evaluating the law for one pair.

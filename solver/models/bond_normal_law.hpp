@@ -9,45 +9,46 @@
 #include "solver/models/bond_law.hpp"
 #include "solver/models/normal_law.hpp"
 #include "solver/models/pair.hpp"
+#include "solver/models/restitution.hpp"
 
 namespace bondem {
 
-/// Run-wide parameters of the bond law beyond the material pairs' (the `bond:` block).
+/// Run-wide parameters of the Hertz + bond law: none (every bond parameter is the material
+/// pair's, PairCoefficients).
 struct BondLawSpec {
-  double alpha = 1.0;  ///< adhesion exponent alpha_adh
-
   /// Calls @p visit(name, value) for each parameter (the case fingerprint covers them all).
   template <class Visit>
-  void parameters(Visit&& visit) const {
-    visit("alpha", alpha);
-  }
+  void parameters(Visit&& /*visit*/) const {}
 };
 
 /// Hertz contact (eq. 26) and, past delta_crit where the criterion holds, the bond (eq. 15, 22-25).
-/// @tparam Adhesion LinearAdhesion (alpha_adh = 1, no std::pow) or GeneralAdhesion.
-template <class Adhesion>
+/// The adhesion exponent is the pair's: alpha_adh = 1 takes the branch without std::pow.
 struct BondNormalLaw {
   using Pair = BondPair;
-  Adhesion adhesion;
 
   Pair pair(const PairCoefficients& c, double r_star, double m_star) const {
     return make_bond_pair(c, r_star, m_star);
   }
-  Pair surface_pair(const PairCoefficients& c, double radius, double mass) const {
-    return make_wall_pair(c, radius, mass);
-  }
   NormalForce force(const Pair& pair, double overlap, double overlap_rate,
                     bool criterion_met) const {
-    return normal_force(pair, adhesion, overlap, overlap_rate, criterion_met);
-  }
-  double surface_force(const Pair& pair, double overlap, double overlap_rate) const {
-    return hertz_contact_force(pair, overlap, overlap_rate);
+    if (!(criterion_met && overlap > pair.critical_overlap)) {
+      return {hertz_contact_force(pair, overlap, overlap_rate), false};
+    }
+    return pair.alpha == 1.0
+               ? normal_force(pair, LinearAdhesion{}, overlap, overlap_rate, true)
+               : normal_force(pair, GeneralAdhesion{pair.alpha}, overlap, overlap_rate, true);
   }
   double friction_load(const Pair& pair, const NormalForce& f, double overlap) const {
     return bondem::friction_load(pair, f, overlap);
   }
-  /// A wall contact never attracts: its load is the repulsion itself.
-  double surface_friction_load(double surface_force) const { return -surface_force; }
+  /// Tangent stiffness of the Hertz contact, 2 E* a, at contact radius @p contact_radius [N/m].
+  double normal_stiffness(const PairCoefficients& c, double contact_radius) const {
+    return 2.0 * c.effective_modulus * contact_radius;
+  }
+  /// xi_con of the damped Hertz contact whose restitution is @p restitution (restitution.hpp).
+  static double damping_ratio_for(double restitution) { return hertz_damping_ratio(restitution); }
+  /// Restitution of the damped Hertz contact with damping ratio @p xi.
+  static double restitution_for(double xi) { return hertz_restitution(xi); }
 
   /// Hertz impact at @p impact_speed (eq. 20) and, when @p bonding, the small oscillations of a
   /// bond about delta_eq (eq. 24).

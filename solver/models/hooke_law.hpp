@@ -13,6 +13,7 @@
 #include "solver/models/bond_law.hpp"
 #include "solver/models/normal_law.hpp"
 #include "solver/models/pair.hpp"
+#include "solver/models/restitution.hpp"
 
 namespace bondem {
 
@@ -78,25 +79,26 @@ struct HookeNormalLaw {
   using Pair = HookePair;
   double stiffness;  ///< k [N/m]
 
+  /// A pair of effective mass m*; a particle on a wall or tool has m* = m, and the same k.
   Pair pair(const PairCoefficients& c, double /*r_star*/, double m_star) const {
     return make_hooke_pair(stiffness, m_star, c.contact_damping);
-  }
-  /// A particle on a wall or tool: m* = m, the same k.
-  Pair surface_pair(const PairCoefficients& c, double /*radius*/, double mass) const {
-    return make_hooke_pair(stiffness, mass, c.contact_damping);
   }
   NormalForce force(const Pair& pair, double overlap, double overlap_rate,
                     bool /*criterion_met*/) const {
     return {hooke_contact_force(pair, overlap, overlap_rate), false};
   }
-  double surface_force(const Pair& pair, double overlap, double overlap_rate) const {
-    return hooke_contact_force(pair, overlap, overlap_rate);
-  }
   /// A contact never attracts: its load is the repulsion itself.
   double friction_load(const Pair& /*pair*/, const NormalForce& f, double /*overlap*/) const {
     return f.force < 0.0 ? -f.force : 0.0;
   }
-  double surface_friction_load(double surface_force) const { return -surface_force; }
+  /// The spring k, whatever the contact radius [N/m].
+  double normal_stiffness(const PairCoefficients& /*c*/, double /*contact_radius*/) const {
+    return stiffness;
+  }
+  /// xi_con of the clamped linear contact whose restitution is @p restitution (restitution.hpp).
+  static double damping_ratio_for(double restitution) { return hooke_damping_ratio(restitution); }
+  /// Restitution of the clamped linear contact with damping ratio @p xi.
+  static double restitution_for(double xi) { return clamped_linear_restitution(xi); }
 
   /// The undamped impact at @p impact_speed: contact time pi sqrt(m*/k) whatever the speed, as the
   /// Hertz law reports its undamped impact (the damper's own limit is contact_damping's). Not

@@ -32,11 +32,7 @@ template <class Visit>
 decltype(auto) with_normal_law(const NormalLawSpec& spec, Visit&& visit) {
   return std::visit(
       detail::Overloaded{
-          [&](const BondLawSpec& bond) {
-            // alpha_adh = 1 needs no std::pow: a law object of its own.
-            return bond.alpha == 1.0 ? visit(BondNormalLaw<LinearAdhesion>{})
-                                     : visit(BondNormalLaw<GeneralAdhesion>{{bond.alpha}});
-          },
+          [&](const BondLawSpec& /*bond*/) { return visit(BondNormalLaw{}); },
           [&](const HookeLawSpec& hooke) { return visit(HookeNormalLaw{hooke.stiffness}); },
       },
       spec);

@@ -38,10 +38,24 @@ inline double spot_radius(double r_star, double overlap) {
 /// How a case sets the adhesion strength: k_adh directly, or the overlap the bond settles at.
 enum class AdhesionInput { kStiffness, kEquilibriumOverlap };
 
-/// Bond-law coefficients of one material pair, computed once; r* and m* vary per contact.
+/// How a contact resists rolling (Ai, Chen, Rotter & Ooi, Powder Technol. 206, 269, 2011).
+enum class RollingModel {
+  kConstantTorque,  ///< model A: -mu_r r* F_n against the relative spin, no history
+  kEpsd,            ///< model C: elastic-plastic spring-dashpot, its spring carried as history
+};
+
+/// Surface-energy cohesion of a contact, beside the bond law (which replaces it once bonded).
+enum class CohesionModel {
+  kNone,
+  kSjkr,  ///< simplified JKR: attraction = energy density x contact area (LIGGGHTS sjkr)
+  kJkr,   ///< Johnson-Kendall-Roberts, with the hysteresis of its separation overlap
+};
+
+/// Coefficients of one material pair, computed once; r* and m* vary per contact.
 struct PairCoefficients {
   double effective_modulus = 0.0;  ///< E* [Pa]
   double contact_damping = 0.0;    ///< xi_con
+  double restitution = 0.0;        ///< e the damping ratio was derived from; 0 when xi_con given
   double bond_damping = 0.0;       ///< xi_bond
   double alpha = 1.0;              ///< alpha_adh
   AdhesionInput input = AdhesionInput::kEquilibriumOverlap;
@@ -53,7 +67,13 @@ struct PairCoefficients {
   double shear_modulus = 0.0;      ///< G* = 1 / ((2 - nu_i)/G_i + (2 - nu_j)/G_j), Mindlin [Pa]
   double friction = 0.0;           ///< Coulomb sliding friction mu
   double rolling_friction = 0.0;   ///< rolling resistance mu_r (dimensionless, times r*)
-  double conductivity = 0.0;       ///< k_eff, harmonic mean of the two conductivities [W/(m K)]
+  RollingModel rolling_model = RollingModel::kConstantTorque;
+  double rolling_damping = 0.0;  ///< eta_r of the EPSD rolling damper
+  CohesionModel cohesion = CohesionModel::kNone;
+  double cohesion_energy = 0.0;  ///< sjkr energy density [J/m^3] or jkr surface energy [J/m^2]
+  BondCriterion criterion = BondCriterion::kNever;  ///< when two particles of the pair bond
+  double bond_temperature = 0.0;                    ///< [K] of criterion kTemperature
+  double conductivity = 0.0;  ///< k_eff, harmonic mean of the two conductivities [W/(m K)]
 };
 
 /// Effective shear modulus G* of Mindlin's tangential stiffness.
@@ -99,8 +119,8 @@ inline BondPair make_bond_pair(const PairCoefficients& c, double r_star, double 
   } else {
     delta_eq = std::pow(k_adh / k_hertz, 1.0 / (1.5 - c.alpha));  // eq. 13
   }
-  return BondPair{k_hertz,           m_star,        k_adh, delta_eq, c.critical_ratio * delta_eq,
-                  c.contact_damping, c.bond_damping};
+  return BondPair{k_hertz,           m_star,         k_adh,  delta_eq, c.critical_ratio * delta_eq,
+                  c.contact_damping, c.bond_damping, c.alpha};
 }
 
 /// The law's coefficients for a particle of @p radius and @p mass on a wall or tool: a sphere of

@@ -62,7 +62,7 @@ inline double clamped_linear_restitution(double xi) {
 /// @p xi >= 0, whatever the impact speed: the clamped linear restitution at sqrt(6/5) xi (see the
 /// file comment). NaN for xi < 0. (calculator.hpp's hertz_restitution integrates the same impact
 /// with RK4; this closed form can replace it.)
-inline double hertz_contact_restitution(double xi) {
+inline double hertz_restitution(double xi) {
   return clamped_linear_restitution(std::sqrt(6.0 / 5.0) * xi);
 }
 

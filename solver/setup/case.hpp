@@ -52,6 +52,30 @@ struct BondModel {
   double temperature = 0.0;  ///< bonding temperature [K] of criterion kTemperature
 };
 
+/// The contact sub-models of one pair of materials: the `contact:` and `bond:` defaults, or an
+/// `interactions:` entry applied over them.
+struct ContactModel {
+  double damping_ratio = 0.0;  ///< xi_con of the contact damper (derived when restitution > 0)
+  /// Coefficient of restitution e of a normal impact; when > 0 the damping ratio is derived from
+  /// it by the normal law's relation (restitution.hpp), else damping_ratio is the input.
+  double restitution = 0.0;
+  double friction = 0.0;          ///< Coulomb sliding friction mu
+  double rolling_friction = 0.0;  ///< rolling resistance mu_r (dimensionless, times r*)
+  RollingModel rolling_model = RollingModel::kConstantTorque;
+  double rolling_damping = 0.3;  ///< eta_r of the EPSD damper (Ai et al. 2011 use 0.3)
+  CohesionModel cohesion = CohesionModel::kNone;
+  /// sjkr: energy density k [J/m^3]; jkr: surface energy w [J/m^2], pull-off (3/2) pi w r*.
+  double cohesion_energy = 0.0;
+  BondModel bond;  ///< the paper's bond law between particles of this pair
+};
+
+/// An `interactions:` entry: the contact model of one unordered pair of materials.
+struct Interaction {
+  int first_material = 0;   ///< index into Case::materials
+  int second_material = 0;  ///< index into Case::materials (may equal the first)
+  ContactModel model;
+};
+
 /// Lumped heat transfer (`thermal:` block): m c_p dT/dt = sum of the heat flows into a particle.
 struct ThermalModel {
   double initial_temperature = 293.15;  ///< [K] of particles not given their own
@@ -73,13 +97,9 @@ struct ParticleSpec {
 struct Case {
   std::string source;  ///< file the case came from, for messages
   std::vector<Material> materials;
-  double contact_damping = 0.0;   ///< xi_con
-  double friction = 0.0;          ///< Coulomb sliding friction mu (pairs and walls)
-  double rolling_friction = 0.0;  ///< rolling resistance mu_r (pairs and walls)
-  BondModel bond;
-  /// The normal-force law and its run-wide parameters. The bond law's alpha must equal
-  /// bond.alpha (the pair coefficients use that one): the reader sets both, and normal_law_of()
-  /// refuses a case built in code that sets only one.
+  ContactModel contact;  ///< the contact model of every pair of materials not in interactions
+  std::vector<Interaction> interactions;  ///< per-pair overrides, each pair at most once
+  /// The normal-force law and its run-wide parameters (the same for every pair).
   NormalLawSpec normal_law = BondLawSpec{};
   double time_step = 0.0;  ///< [s]
   double end_time = 0.0;   ///< [s]
@@ -108,7 +128,9 @@ struct Case {
   /// cases built in code.
   std::map<std::string, std::string> settings;
 
-  /// Bond-law coefficients of material pair (a, b).
+  /// The contact model of material pair (a, b): its interactions entry, else the defaults.
+  const ContactModel& contact_model(int a, int b) const;
+  /// Every coefficient of material pair (a, b), derived once for the run.
   PairCoefficients pair_coefficients(int a, int b) const;
 };
 

@@ -7,8 +7,8 @@ int main() {
   bondem::Case c;
   c.source = "consumer";
   c.materials.push_back({"glass", 2500.0, 1.0e9, 0.3});
-  c.bond.criterion = bondem::BondCriterion::kNever;
-  c.bond.equilibrium_overlap = 1e-6;
+  c.contact.bond.criterion = bondem::BondCriterion::kNever;
+  c.contact.bond.equilibrium_overlap = 1e-6;
   c.time_step = 1e-8;  // over a thousand steps per contact
   c.end_time = 1e-3;
   c.particles.push_back({0, 1e-3, {0.0, 0.0, 0.0}});
