@@ -208,10 +208,10 @@ template <bool kFriction, class Law>
   out.bonded[k] = f.bonded ? 1 : 0;
   if (!history.joined.empty()) history.joined[k] = f.joined ? 1 : 0;
   if (thermal) {
-    // A JKR contact held apart (overlap <= 0) touches on no spot: it conducts nothing.
-    const double spot = f.contact_radius > 0.0 ? f.contact_radius
-                        : g.overlap > 0.0      ? spot_radius(g.r_star, g.overlap)
-                                               : 0.0;
+    // A JKR contact conducts through its own contact radius, which stays open (a neck) even
+    // where the overlap is negative; other contacts through the Hertz spot.
+    const double spot =
+        f.contact_radius > 0.0 ? f.contact_radius : spot_radius(g.r_star, g.overlap);
     const double h = spot_conductance(coefficients.conductivity, spot);
     out.conductance[k] = h;
     out.heat[k] = contact_heat_flow(h, p.temperature[i], p.temperature[j]);
