@@ -21,8 +21,8 @@ struct CollisionSample {
 
 /// Outcome of a collision.
 struct CollisionResult {
-  double restitution =
-      0.0;              ///< separation speed (when the contact ends) / impact speed; 0 in contact
+  /// Separation speed when the contact ends / impact speed; 0 while still in contact.
+  double restitution = 0.0;
   bool bonded = false;  ///< a bond is active at the end of the run
   /// The pair is still in contact at the end of the run, held by a bond or by its JKR contact.
   bool stuck = false;
