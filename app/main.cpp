@@ -175,6 +175,7 @@ void print_result(const bondem::CollisionResult& r, bool json) {
   if (json) {
     std::cout << "{\"restitution\": " << json_number(r.restitution)
               << ", \"bonded\": " << (r.bonded ? "true" : "false")
+              << ", \"stuck\": " << (r.stuck ? "true" : "false")
               << ", \"max_overlap\": " << json_number(r.max_overlap)
               << ", \"contact_time\": " << contact_time
               << ", \"final_overlap\": " << json_number(r.final_overlap) << "}\n";
@@ -182,6 +183,7 @@ void print_result(const bondem::CollisionResult& r, bool json) {
   }
   std::cout << "restitution = " << json_number(r.restitution) << "\n"
             << "bonded = " << (r.bonded ? "true" : "false") << "\n"
+            << "stuck = " << (r.stuck ? "true" : "false") << "\n"
             << "bond_formed = " << (r.bond_formed ? "true" : "false") << "\n"
             << "max_overlap = " << json_number(r.max_overlap) << " m\n"
             << "contact_time = " << contact_time << (r.contact_time ? " s" : "") << "\n"
@@ -257,38 +259,36 @@ int run_collide(const CollideOptions& o) {
     }
     warn_time_step(c, range[1]);
     bondem::AtomicFile out(o.out_path);
-    out.stream() << "velocity,restitution,bonded,max_overlap,contact_time,final_overlap\n";
+    out.stream() << "velocity,restitution,bonded,max_overlap,contact_time,final_overlap,stuck\n";
     const auto n = static_cast<int>(count);
     for (int k = 0; k < n; ++k) {
       const double v = range[0] + (range[1] - range[0]) * k / (n - 1);
       const auto r = bondem::collide(c, v);
       out.stream() << v << "," << r.restitution << "," << (r.bonded ? 1 : 0) << "," << r.max_overlap
                    << "," << (r.contact_time ? json_number(*r.contact_time) : "") << ","
-                   << r.final_overlap << "\n";
+                   << r.final_overlap << "," << (r.stuck ? 1 : 0) << "\n";
     }
     out.commit();
     return 0;
   }
 
   if (!o.threshold.empty()) {
-    // Bisection on "bond held at the end": sticking is monotone in the impact speed.
     const auto range = parse_range(o.threshold, 2, "--threshold");
-    double low = range[0];
-    double high = range[1];
-    warn_time_step(c, high);
-    if (bondem::collide(c, low).bonded || !bondem::collide(c, high).bonded) {
+    warn_time_step(c, range[1]);
+    const auto found = bondem::sticking_threshold(c, range[0], range[1]);
+    if (!found) {
       throw UsageError("--threshold " + o.threshold +
-                       ": the pair must rebound at V0 and stick at V1 to bracket the threshold");
+                       ": the pair must stick at one of V0, V1 and rebound at the other to bracket "
+                       "the threshold");
     }
-    while (high - low > 1e-6 * high) {
-      const double mid = 0.5 * (low + high);
-      (bondem::collide(c, mid).bonded ? high : low) = mid;
-    }
-    const double threshold = 0.5 * (low + high);
+    const double threshold = found->velocity;
+    const bool sticks_below = found->sticks_below;
     if (o.json) {
-      std::cout << "{\"sticking_threshold\": " << json_number(threshold) << "}\n";
+      std::cout << "{\"sticking_threshold\": " << json_number(threshold)
+                << ", \"sticks_below\": " << (sticks_below ? "true" : "false") << "}\n";
     } else {
-      std::cout << "sticking_threshold = " << json_number(threshold) << " m/s\n";
+      std::cout << "sticking_threshold = " << json_number(threshold) << " m/s\n"
+                << "sticks_below = " << (sticks_below ? "true" : "false") << "\n";
     }
     return 0;
   }
@@ -466,7 +466,7 @@ int run_command_line(int argc, char** argv) {
   collide_cmd->add_option("--sweep", collide.sweep, "Impact speeds V0:V1:N (needs --out)");
   collide_cmd->add_option("--out", collide.out_path, "CSV file for --sweep");
   collide_cmd->add_option("--threshold", collide.threshold,
-                          "Bisect the sticking speed between V0:V1");
+                          "Bisect the sticking speed between V0:V1 (stuck at one end)");
 
   RunCommand run;
   run.command_line.assign(argv, argv + argc);
