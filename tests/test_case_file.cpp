@@ -94,6 +94,7 @@ TEST(CaseFile, ShippedCasesLoad) {
   for (const char* name :
        {"/paper_5_1.yaml", "/paper_5_2.yaml", "/powder_bed_packing.yaml",
         "/powder_bed_packing_ci.yaml", "/powder_spreading.yaml", "/powder_spreading_ci.yaml",
+        "/powder_spreading_friction_ci.yaml", "/powder_spreading_cohesive_ci.yaml",
         "/laser_sintering.yaml", "/laser_sintering_ci.yaml", "/bench/peer_lattice.yaml"}) {
     EXPECT_NO_THROW(load_case(std::string(BONDEM_CASES_DIR) + name)) << name;
   }

@@ -1,9 +1,17 @@
-// The spreading CI variant end to end: a blade pass leaves a layer whose packing lies in the
-// range a 2.5 x D90 gap allows.
+// The spreading CI case end to end, and its variants with other contact models per material pair
+// (powder_spreading_friction_ci.yaml, powder_spreading_cohesive_ci.yaml): each variant runs with
+// the base's seed, heap and gap, and its layer is compared with the base's. The runs are shared
+// within the process (spreading_run), and ctest runs the Spreading suite as one test
+// (tests/CMakeLists.txt), so the base case runs once.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
+#include <fstream>
+#include <map>
 #include <sstream>
+#include <string>
+#include <vector>
 
 #include "io/case_file.hpp"
 #include "io/run.hpp"
@@ -13,10 +21,71 @@
 namespace bondem {
 namespace {
 
+/// One run of a spreading case and the loads of its history while the blade moves.
+struct SpreadingRun {
+  Case c;
+  RunResult r;
+  std::filesystem::path directory;
+  /// Mean of load_substrate_x over mean -load_substrate_z: the drag of the powder on the
+  /// substrate along the spreading direction per unit of its weight there.
+  double substrate_drag = 0.0;
+  double blade_load = 0.0;  ///< mean -load_blade_x: the force the blade pushes the powder with [N]
+};
+
+/// The mean of history.csv's columns @p names over the rows with time > @p after.
+std::vector<double> history_means(const std::filesystem::path& path,
+                                  const std::vector<std::string>& names, double after) {
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::string> header;
+  std::stringstream fields(line);
+  for (std::string field; std::getline(fields, field, ',');) header.push_back(field);
+  std::vector<std::size_t> columns;
+  for (const std::string& name : names) {
+    const auto found = std::find(header.begin(), header.end(), name);
+    EXPECT_NE(found, header.end()) << name;
+    columns.push_back(static_cast<std::size_t>(found - header.begin()));
+  }
+  std::vector<double> sums(names.size(), 0.0);
+  std::size_t rows = 0;
+  while (std::getline(in, line)) {
+    std::vector<double> v;
+    std::stringstream row(line);
+    for (std::string field; std::getline(row, field, ',');) v.push_back(std::stod(field));
+    if (v.size() != header.size() || !(v[0] > after)) continue;
+    for (std::size_t k = 0; k < columns.size(); ++k) sums[k] += v[columns[k]];
+    ++rows;
+  }
+  EXPECT_GT(rows, 100u) << path;
+  for (double& sum : sums) sum /= static_cast<double>(rows);
+  return sums;
+}
+
+/// The run of cases/@p name, made on first use and kept for the other tests of the process.
+/// History every 0.1 ms instead of the case's 1 ms: the loads are instantaneous, and their means
+/// over the 24 ms of spreading need the 240 rows (the rows do not change the run).
+const SpreadingRun& spreading_run(const std::string& name) {
+  static std::map<std::string, SpreadingRun> runs;
+  if (const auto found = runs.find(name); found != runs.end()) return found->second;
+  SpreadingRun run;
+  run.c = load_case(BONDEM_CASES_DIR "/" + name + ".yaml", {"output.history_interval=1e-4"});
+  run.directory = testing::test_root() / ("bondem_spreading_" + name);
+  run.r = testing::quiet_run(run.c, run.directory);
+  const double blade_start = run.c.bodies.at(0).motion.back().time;
+  const std::vector<double> means =
+      history_means(run.directory / "history.csv",
+                    {"load_substrate_x", "load_substrate_z", "load_blade_x"}, blade_start);
+  run.substrate_drag = means[0] / -means[1];
+  run.blade_load = -means[2];
+  return runs.emplace(name, std::move(run)).first->second;
+}
+
 TEST(Spreading, CiVariantLeavesAPlausibleLayer) {
-  const Case c = load_case(BONDEM_CASES_DIR "/powder_spreading_ci.yaml");
-  const std::filesystem::path directory = testing::test_root() / "bondem_spreading_ci";
-  const RunResult r = testing::quiet_run(c, directory);
+  const SpreadingRun& base = spreading_run("powder_spreading_ci");
+  const Case& c = base.c;
+  const RunResult& r = base.r;
+  const std::filesystem::path& directory = base.directory;
   ASSERT_TRUE(r.layer.has_value());
   const LayerMetrics& layer = *r.layer;
   const double gap = c.layer->layer_height;
@@ -39,6 +108,52 @@ TEST(Spreading, CiVariantLeavesAPlausibleLayer) {
   EXPECT_EQ(first.polys, 6u);
   ASSERT_NE(last.cell_array("tool_index"), nullptr);
   EXPECT_NEAR(last.points[0].x() - first.points[0].x(), 0.1 * (0.044 - 0.02), 1e-9);
+}
+
+// Polished steel (powder-steel friction 0.1 instead of 0.5): the heap slides on the substrate.
+// The runs are chaotic: a change anywhere gives a layer like another seed's, so the margins hold
+// for every one of seeds 7, 11, 23, 31 and 43 of both cases (ranges below; the case's seed 7
+// first). The base's spread over these seeds: solid fraction 0.21-0.24, roughness 38-42 um.
+TEST(Spreading, PolishedSteelLetsTheHeapSlideAndLeavesAThinnerSmootherLayer) {
+  const SpreadingRun& base = spreading_run("powder_spreading_ci");
+  const SpreadingRun& polished = spreading_run("powder_spreading_friction_ci");
+  ASSERT_TRUE(base.r.layer && polished.r.layer);
+  const LayerMetrics& b = *base.r.layer;
+  const LayerMetrics& p = *polished.r.layer;
+  // Every substrate contact carries at most friction x its normal load, so the drag is at most
+  // 0.1 of the weight on the substrate (round-off aside): 0.086 (0.084-0.088). The base's heap,
+  // gripping the substrate with 0.5, drags with 0.27 (0.26-0.31) of it.
+  EXPECT_LE(polished.substrate_drag, 0.1 * (1.0 + 1e-9));
+  EXPECT_GT(base.substrate_drag, 0.2);
+  // Sliding on the substrate instead of shearing within, the heap needs less push: the blade
+  // load is 0.76 (0.75-0.84) of the base's.
+  EXPECT_LT(polished.blade_load, 0.92 * base.blade_load);
+  // Particles on the substrate are dragged along with the heap instead of staying in the gap:
+  // a thinner, smoother, sparser layer. Roughness 0.64 (0.64-0.76) of the base's, mean height
+  // 0.78 (0.76-0.80), solid fraction 0.044 (0.029-0.044) lower.
+  EXPECT_LT(p.roughness, 0.85 * b.roughness);
+  EXPECT_LT(p.mean_surface_height, 0.9 * b.mean_surface_height);
+  EXPECT_LT(p.solid_fraction, b.solid_fraction - 0.015);
+}
+
+// Cohesive powder (JKR between powder particles, Bond number 5): the heap holds together and the
+// blade leaves fewer particles, with bare substrate between them. Margins as above, from seeds 7,
+// 11, 23, 31 and 43 of both cases.
+TEST(Spreading, CohesionLeavesASparserLayerWithMoreBareSubstrate) {
+  const SpreadingRun& base = spreading_run("powder_spreading_ci");
+  const SpreadingRun& cohesive = spreading_run("powder_spreading_cohesive_ci");
+  ASSERT_TRUE(base.r.layer && cohesive.r.layer);
+  const LayerMetrics& b = *base.r.layer;
+  const LayerMetrics& k = *cohesive.r.layer;
+  // Solid fraction 0.097 (0.029-0.097) lower: 0.24 -> 0.14 at seed 7; bare fraction 0.28
+  // (0.10-0.28) higher: 0.16 -> 0.44; particles in the layer box 31 (14-31) fewer of 94.
+  EXPECT_LT(k.solid_fraction, b.solid_fraction - 0.015);
+  EXPECT_GT(k.empty_fraction, b.empty_fraction + 0.05);
+  EXPECT_LT(k.particles + 5, b.particles);
+  // The cohesive heap is stronger: the blade pushes it with 1.44 (1.17-1.51) times the force.
+  EXPECT_GT(cohesive.blade_load, 1.1 * base.blade_load);
+  // No bond law: cohesion forms no bonded clusters; it holds contacts only.
+  EXPECT_EQ(cohesive.r.clusters, 0u);
 }
 
 }  // namespace
