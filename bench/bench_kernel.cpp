@@ -81,8 +81,8 @@ void pair_pass(benchmark::State& state, bool bonded, double alpha) {
   const BondingCriterion criterion{scene.particles, forces.bonded, nullptr};
   ContactSummary summary;
   for (auto _ : state) {
-    summary = compute_pair_forces<kFriction>(scene.particles, scene, list, law, criterion, forces,
-                                             history);
+    summary = compute_pair_forces<kFriction, false>(scene.particles, scene, list, law, criterion,
+                                                    forces, history);
     benchmark::DoNotOptimize(forces.fx.data());
   }
   if (bonded && summary.bonds != summary.contacts) state.SkipWithError("pairs are not bonded");

@@ -121,10 +121,9 @@ struct PairGeometryBlock {
 
 /// A candidate pair out of contact: no force, torque or heat, no bond, its springs released.
 /// Returns 1 when it was bonded (a bond lost), else 0.
-template <bool kFriction>
+template <bool kFriction, bool kModels>
 [[gnu::always_inline]] inline std::size_t release_pair(std::uint32_t k, bool thermal, bool rolling,
-                                                       bool contact_history, PairForces& out,
-                                                       PairHistory& history) {
+                                                       PairForces& out, PairHistory& history) {
   out.fx[k] = out.fy[k] = out.fz[k] = 0.0;
   const std::size_t lost = out.bonded[k];
   out.bonded[k] = 0;
@@ -134,7 +133,7 @@ template <bool kFriction>
     if (rolling) out.roll_x[k] = out.roll_y[k] = out.roll_z[k] = 0.0;
     history.sx[k] = history.sy[k] = history.sz[k] = 0.0;
   }
-  if (contact_history) {
+  if constexpr (kModels) {
     history.rx[k] = history.ry[k] = history.rz[k] = 0.0;
     history.joined[k] = 0;
   }
@@ -144,7 +143,7 @@ template <bool kFriction>
 /// Friction and rolling resistance of contact k = (i, j) with normal part @p n: adds the
 /// tangential force to slot k, stores its torque per lever, the overlap and the rolling torque,
 /// and updates the springs in @p history.
-template <class Law>
+template <bool kModels, class Law>
 [[gnu::always_inline]] inline void pair_friction(const Particles& p, const Scene& scene,
                                                  const Law& law, const PairCoefficients& c,
                                                  const ContactNormal& n, const PairGeometry& g,
@@ -160,20 +159,20 @@ template <class Law>
       contact_velocity(Eigen::Vector3d(p.vx[i], p.vy[i], p.vz[i]), spin_i, lever_i,
                        Eigen::Vector3d(p.vx[j], p.vy[j], p.vz[j]), spin_j, lever_j),
       normal);
-  const bool springs = !history.rx.empty();
-  ContactHistory h{Eigen::Vector3d(history.sx[k], history.sy[k], history.sz[k]),
-                   springs ? Eigen::Vector3d(history.rx[k], history.ry[k], history.rz[k])
-                           : Eigen::Vector3d::Zero()};
-  const ContactFriction t = contact_friction(
+  Eigen::Vector3d slip(history.sx[k], history.sy[k], history.sz[k]);
+  Eigen::Vector3d rolling_spring = Eigen::Vector3d::Zero();
+  if constexpr (kModels) rolling_spring = {history.rx[k], history.ry[k], history.rz[k]};
+  const ContactFriction t = contact_friction<kModels>(
       law, c, n, g.r_star, g.m_star, g.overlap, normal, sliding, spin_i - spin_j,
-      [&] { return p.inverse_inertia(i) + p.inverse_inertia(j); }, rolling, h, scene.time_step);
-  history.sx[k] = h.slip.x();
-  history.sy[k] = h.slip.y();
-  history.sz[k] = h.slip.z();
-  if (springs) {
-    history.rx[k] = h.rolling_spring.x();
-    history.ry[k] = h.rolling_spring.y();
-    history.rz[k] = h.rolling_spring.z();
+      [&] { return p.inverse_inertia(i) + p.inverse_inertia(j); }, rolling, slip, rolling_spring,
+      scene.time_step);
+  history.sx[k] = slip.x();
+  history.sy[k] = slip.y();
+  history.sz[k] = slip.z();
+  if constexpr (kModels) {
+    history.rx[k] = rolling_spring.x();
+    history.ry[k] = rolling_spring.y();
+    history.rz[k] = rolling_spring.z();
   }
   out.fx[k] += t.force.x();
   out.fy[k] += t.force.y();
@@ -192,7 +191,7 @@ template <class Law>
 /// Contact k = (i, j) of pass 1 (in contact, or a JKR contact that still holds): the pair's
 /// contact model, the contact's heat flow in thermal runs and, with kFriction, friction and
 /// rolling; results stored in slot k.
-template <bool kFriction, class Law>
+template <bool kFriction, bool kModels, class Law>
 [[gnu::always_inline]] inline ContactNormal evaluate_pair(
     const Particles& p, const Scene& scene, const Law& law, const PairCoefficients& coefficients,
     const PairGeometry& g, bool criterion_met, std::size_t i, std::size_t j, std::uint32_t k,
@@ -200,13 +199,13 @@ template <bool kFriction, class Law>
   const double overlap_rate =
       approach_rate(p.vx[j] - p.vx[i], p.vy[j] - p.vy[i], p.vz[j] - p.vz[i], g.nx, g.ny, g.nz);
   const auto pair = law.pair(coefficients, g.r_star, g.m_star);
-  const ContactNormal f = contact_normal(law, coefficients, pair, g.r_star, g.m_star, g.overlap,
-                                         overlap_rate, criterion_met);
+  const ContactNormal f = contact_normal<kModels>(law, coefficients, pair, g.r_star, g.m_star,
+                                                  g.overlap, overlap_rate, criterion_met);
   out.fx[k] = f.force * g.nx;
   out.fy[k] = f.force * g.ny;
   out.fz[k] = f.force * g.nz;
   out.bonded[k] = f.bonded ? 1 : 0;
-  if (!history.joined.empty()) history.joined[k] = f.joined ? 1 : 0;
+  if constexpr (kModels) history.joined[k] = f.joined ? 1 : 0;
   if (thermal) {
     // A JKR contact conducts through its own contact radius, which stays open (a neck) even
     // where the overlap is negative; other contacts through the Hertz spot.
@@ -217,7 +216,7 @@ template <bool kFriction, class Law>
     out.heat[k] = contact_heat_flow(h, p.temperature[i], p.temperature[j]);
   }
   if constexpr (kFriction) {
-    pair_friction(p, scene, law, coefficients, f, g, i, j, k, rolling, out, history);
+    pair_friction<kModels>(p, scene, law, coefficients, f, g, i, j, k, rolling, out, history);
   }
   return f;
 }
@@ -233,18 +232,14 @@ struct BondingCriterion {
   /// Whether pair k = (i, j) with coefficients @p c may bond now.
   [[gnu::always_inline]] bool operator()(const PairCoefficients& c, std::size_t i, std::size_t j,
                                          std::uint32_t k) const {
-    switch (c.criterion) {
-      case BondCriterion::kAlways:
-        return true;
-      case BondCriterion::kNever:
-        return false;
-      case BondCriterion::kTemperature:
-        return temperature_criterion(bonded[k] != 0, particles.temperature[i],
-                                     particles.temperature[j], c.bond_temperature);
-      case BondCriterion::kPairFlag:
-        return (*pair_flag)(particles.id[i], particles.id[j]);
+    // Tests in order of how common the criteria are; a switch measured 9 instructions a contact.
+    if (c.criterion == BondCriterion::kNever) return false;
+    if (c.criterion == BondCriterion::kAlways) return true;
+    if (c.criterion == BondCriterion::kTemperature) {
+      return temperature_criterion(bonded[k] != 0, particles.temperature[i],
+                                   particles.temperature[j], c.bond_temperature);
     }
-    return false;
+    return (*pair_flag)(particles.id[i], particles.id[j]);
   }
 };
 
@@ -254,8 +249,10 @@ struct BondingCriterion {
 /// pair's previous state.
 /// In thermal runs each contact also gets its conductance and the heat flow into i.
 /// With kFriction the pair also gets the tangential law (history in @p history) and rolling
-/// resistance, and torques are stored; without it that code is compiled out.
-template <bool kFriction, class Law>
+/// resistance, and torques are stored; without it that code is compiled out. With kModels (some
+/// material pair has cohesion or EPSD rolling: Particles::contact_history) the pairs also carry
+/// the JKR flag and the EPSD spring in @p history; without it that code is compiled out.
+template <bool kFriction, bool kModels, class Law>
 ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const NeighborList& list,
                                    const Law& law, const BondingCriterion& criterion_met,
                                    PairForces& out, PairHistory& history) {
@@ -268,7 +265,6 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
   double max_fraction = 0.0;
   const bool thermal = p.thermal();
   const bool rolling = kFriction && !out.roll_x.empty();
-  const bool contact_history = !history.joined.empty();
   constexpr std::size_t kChunk = 64;     // particles per scheduling unit
   constexpr std::uint32_t kBlock = 128;  // pairs per geometry block
   const std::size_t chunks = (n + kChunk - 1) / kChunk;
@@ -280,28 +276,28 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
         chunk * kChunk, std::min(n, (chunk + 1) * kChunk),
         [&](std::uint32_t s, std::size_t i, std::size_t j, std::uint32_t k)
             __attribute__((always_inline)) { geometry.measure(s, p, list, i, j, k); },
-        [&](std::uint32_t s, std::size_t i, std::size_t j,
-            std::uint32_t k) __attribute__((always_inline)) {
-          const PairGeometry g = geometry.at(s);
-          if (!(g.overlap > 0.0) &&
-              !(contact_history && history.joined[k] != 0 &&
-                g.overlap >
-                    separation_overlap(scene.pair(p.material[i], p.material[j]), g.r_star))) {
-            broken += release_pair<kFriction>(k, thermal, rolling, contact_history, out, history);
-            return;
-          }
-          const bool was_bonded = out.bonded[k] != 0;
-          const PairCoefficients& c = scene.pair(p.material[i], p.material[j]);
-          const ContactNormal f =
-              evaluate_pair<kFriction>(p, scene, law, c, g, criterion_met(c, i, j, k), i, j, k,
-                                       thermal, rolling, out, history);
-          formed += f.bonded && !was_bonded ? 1 : 0;
-          broken += !f.bonded && was_bonded ? 1 : 0;
-          ++contacts;
-          bonds += f.bonded ? 1 : 0;
-          max_overlap = std::max(max_overlap, g.overlap);
-          max_fraction = std::max(max_fraction, g.overlap / std::min(p.radius[i], p.radius[j]));
-        });
+        [&](std::uint32_t s, std::size_t i, std::size_t j, std::uint32_t k)
+            __attribute__((always_inline)) {
+              const PairGeometry g = geometry.at(s);
+              if (!(g.overlap > 0.0) &&
+                  !(kModels && history.joined[k] != 0 &&
+                    g.overlap >
+                        separation_overlap(scene.pair(p.material[i], p.material[j]), g.r_star))) {
+                broken += release_pair<kFriction, kModels>(k, thermal, rolling, out, history);
+                return;
+              }
+              const bool was_bonded = out.bonded[k] != 0;
+              const PairCoefficients& c = scene.pair(p.material[i], p.material[j]);
+              const ContactNormal f =
+                  evaluate_pair<kFriction, kModels>(p, scene, law, c, g, criterion_met(c, i, j, k),
+                                                    i, j, k, thermal, rolling, out, history);
+              formed += f.bonded && !was_bonded ? 1 : 0;
+              broken += !f.bonded && was_bonded ? 1 : 0;
+              ++contacts;
+              bonds += f.bonded ? 1 : 0;
+              max_overlap = std::max(max_overlap, g.overlap);
+              max_fraction = std::max(max_fraction, g.overlap / std::min(p.radius[i], p.radius[j]));
+            });
   }
   ContactSummary summary;
   summary.contacts = contacts;
@@ -314,14 +310,14 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
 }
 
 /// Releases the history of particle i against boundary slot @p slot: no contact there.
-[[gnu::always_inline]] inline void release_surface(Particles& p, std::size_t slot, std::size_t i,
-                                                   bool friction) {
+template <bool kFriction, bool kModels>
+[[gnu::always_inline]] inline void release_surface(Particles& p, std::size_t slot, std::size_t i) {
   const std::size_t wall = i * static_cast<std::size_t>(p.walls) + slot;
-  if (friction) {
+  if constexpr (kFriction) {
     double* slip = &p.wall_slip[wall * 3];
     slip[0] = slip[1] = slip[2] = 0.0;
   }
-  if (p.contact_history) {
+  if constexpr (kModels) {
     double* held = &p.wall_contact[wall * Particles::kWallContactValues];
     held[0] = held[1] = held[2] = held[3] = 0.0;
   }
@@ -335,29 +331,29 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
 /// @param surface_velocity velocity of the surface material at the contact.
 /// Returns the overlap (<= 0 and no JKR contact holding: zero force and torque, history
 /// released).
-template <bool kFriction, class Law>
+template <bool kFriction, bool kModels, class Law>
 double surface_contact(Particles& p, const Scene& scene, const Law& law, int material,
                        std::size_t slot, std::size_t i, double gap, const Eigen::Vector3d& normal,
                        const Eigen::Vector3d& surface_velocity, Eigen::Vector3d& force,
                        Eigen::Vector3d& torque) {
   const double overlap = surface_overlap(p.radius[i], gap);
-  const PairCoefficients& c = scene.pair(p.material[i], material);
   const std::size_t wall = i * static_cast<std::size_t>(p.walls) + slot;
-  double* held =
-      p.contact_history ? &p.wall_contact[wall * Particles::kWallContactValues] : nullptr;
+  double* held = kModels ? &p.wall_contact[wall * Particles::kWallContactValues] : nullptr;
   torque.setZero();
   if (overlap <= 0.0 &&
-      !(held != nullptr && held[3] != 0.0 && overlap > separation_overlap(c, p.radius[i]))) {
+      !(kModels && held[3] != 0.0 &&
+        overlap > separation_overlap(scene.pair(p.material[i], material), p.radius[i]))) {
     force.setZero();
-    release_surface(p, slot, i, kFriction);
+    release_surface<kFriction, kModels>(p, slot, i);
     return overlap;
   }
+  const PairCoefficients& c = scene.pair(p.material[i], material);
   const auto pair = law.pair(c, p.radius[i], p.mass[i]);
   const Eigen::Vector3d velocity(p.vx[i], p.vy[i], p.vz[i]);
   const ContactNormal n =
-      contact_normal(law, c, pair, p.radius[i], p.mass[i], overlap,
-                     surface_approach_rate(velocity, surface_velocity, normal), false);
-  if (held != nullptr) held[3] = n.joined ? 1.0 : 0.0;
+      contact_normal<kModels>(law, c, pair, p.radius[i], p.mass[i], overlap,
+                              surface_approach_rate(velocity, surface_velocity, normal), false);
+  if constexpr (kModels) held[3] = n.joined ? 1.0 : 0.0;
   // n_ij points from the particle into the surface, i.e. along -normal.
   const Eigen::Vector3d n_ij = -normal;
   force = n.force * n_ij;
@@ -367,19 +363,19 @@ double surface_contact(Particles& p, const Scene& scene, const Law& law, int mat
     const Eigen::Vector3d spin(p.wx[i], p.wy[i], p.wz[i]);
     const Eigen::Vector3d sliding =
         sliding_velocity(surface_contact_velocity(velocity, spin, lever, surface_velocity), n_ij);
-    ContactHistory h{
-        Eigen::Vector3d(slip[0], slip[1], slip[2]),
-        held != nullptr ? Eigen::Vector3d(held[0], held[1], held[2]) : Eigen::Vector3d::Zero()};
-    const ContactFriction t = contact_friction(
+    Eigen::Vector3d spring(slip[0], slip[1], slip[2]);
+    Eigen::Vector3d rolling_spring = Eigen::Vector3d::Zero();
+    if constexpr (kModels) rolling_spring = {held[0], held[1], held[2]};
+    const ContactFriction t = contact_friction<kModels>(
         law, c, n, p.radius[i], p.mass[i], overlap, n_ij, sliding, spin,
-        [&] { return p.inverse_inertia(i); }, true, h, scene.time_step);
-    slip[0] = h.slip.x();
-    slip[1] = h.slip.y();
-    slip[2] = h.slip.z();
-    if (held != nullptr) {
-      held[0] = h.rolling_spring.x();
-      held[1] = h.rolling_spring.y();
-      held[2] = h.rolling_spring.z();
+        [&] { return p.inverse_inertia(i); }, true, spring, rolling_spring, scene.time_step);
+    slip[0] = spring.x();
+    slip[1] = spring.y();
+    slip[2] = spring.z();
+    if constexpr (kModels) {
+      held[0] = rolling_spring.x();
+      held[1] = rolling_spring.y();
+      held[2] = rolling_spring.z();
     }
     force += t.force;
     torque = moment(lever, t.force) + t.rolling_torque;
@@ -389,14 +385,14 @@ double surface_contact(Particles& p, const Scene& scene, const Law& law, int mat
 
 /// Contact of particle i with boundary @p b: the walls first, then the moving bodies. Returns the
 /// overlap when in contact; without contact, a value <= 0 (for a body far away, just 0).
-template <bool kFriction, class Law>
+template <bool kFriction, bool kModels, class Law>
 double boundary_contact(Particles& p, const Scene& scene, const Law& law, std::size_t b,
                         std::size_t i, Eigen::Vector3d& force, Eigen::Vector3d& torque) {
   if (b < scene.walls.size()) {
     const PlaneWall& wall = scene.walls[b];
-    return surface_contact<kFriction>(p, scene, law, wall.material, b, i,
-                                      distance_to(wall, p.x[i], p.y[i], p.z[i]), wall.normal,
-                                      Eigen::Vector3d::Zero(), force, torque);
+    return surface_contact<kFriction, kModels>(p, scene, law, wall.material, b, i,
+                                               distance_to(wall, p.x[i], p.y[i], p.z[i]),
+                                               wall.normal, Eigen::Vector3d::Zero(), force, torque);
   }
   const Body& body = scene.bodies[b - scene.walls.size()];
   const Eigen::Vector3d centre(p.x[i], p.y[i], p.z[i]);
@@ -406,13 +402,14 @@ double boundary_contact(Particles& p, const Scene& scene, const Law& law, std::s
     // that of surface_contact without contact; the overlap returned is only known to be <= 0.
     force.setZero();
     torque.setZero();
-    release_surface(p, b, i, kFriction);
+    release_surface<kFriction, kModels>(p, b, i);
     return 0.0;
   }
   const SurfacePoint surface = nearest_surface(body, centre);
   const Eigen::Vector3d point = centre - surface.gap * surface.normal;
-  return surface_contact<kFriction>(p, scene, law, body.material, b, i, surface.gap, surface.normal,
-                                    surface_velocity(body, point), force, torque);
+  return surface_contact<kFriction, kModels>(p, scene, law, body.material, b, i, surface.gap,
+                                             surface.normal, surface_velocity(body, point), force,
+                                             torque);
 }
 
 /// Particles per block of the wall-load partial sums of gather_forces.
@@ -469,7 +466,7 @@ struct BoundaryTally {
 
 /// Adds every wall's and tool's contact with particle i to @p load and to the block's wall loads
 /// @p block_load (3 values per boundary); walls held at a temperature also conduct heat.
-template <bool kFriction, class Law>
+template <bool kFriction, bool kModels, class Law>
 [[gnu::always_inline]] inline void gather_boundaries(Particles& p, const Scene& scene,
                                                      const Law& law, std::size_t i, bool thermal,
                                                      double* block_load, ParticleLoad& load,
@@ -477,10 +474,11 @@ template <bool kFriction, class Law>
   const std::size_t boundaries = scene.walls.size() + scene.bodies.size();
   for (std::size_t w = 0; w < boundaries; ++w) {
     Eigen::Vector3d wall_f, wall_tau;
-    const double overlap = boundary_contact<kFriction>(p, scene, law, w, i, wall_f, wall_tau);
+    const double overlap =
+        boundary_contact<kFriction, kModels>(p, scene, law, w, i, wall_f, wall_tau);
     if (overlap <= 0.0) {
       // A JKR contact held apart still pulls; it conducts no heat and counts as no contact.
-      if (p.contact_history) {
+      if constexpr (kModels) {
         load.force += wall_f;
         load.torque += wall_tau;
         for (int axis = 0; axis < 3; ++axis) block_load[w * 3 + axis] += wall_f[axis];
@@ -521,8 +519,9 @@ template <bool kFriction, class Law>
 /// kWallLoadBlock particles into @p wall_forces (3 values per block and wall): the caller adds the
 /// blocks in order, so wall loads need no per-particle storage and keep one summation order. In
 /// thermal runs the same order sums the heat flows into p.heat_rate: contacts, walls held at a
-/// temperature, convection and radiation (the laser is added by the caller).
-template <bool kFriction, class Law>
+/// temperature, convection and radiation (the laser is added by the caller). kModels as in
+/// compute_pair_forces.
+template <bool kFriction, bool kModels, class Law>
 ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborList& list,
                              const Law& law, const PairForces& pair_forces,
                              std::vector<double>& wall_forces) {
@@ -546,7 +545,7 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
     for (std::size_t i = block * kWallLoadBlock; i < block_end; ++i) {
       ParticleLoad load{p.mass[i] * g, Eigen::Vector3d::Zero()};
       gather_pairs<kFriction>(p, list, pair_forces, i, thermal, rolling, load);
-      gather_boundaries<kFriction>(p, scene, law, i, thermal, block_load, load, tally);
+      gather_boundaries<kFriction, kModels>(p, scene, law, i, thermal, block_load, load, tally);
       if (thermal) {
         exchange_with_surroundings(p, scene, i, load);
         p.heat_rate[i] = load.heat;

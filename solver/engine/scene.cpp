@@ -59,7 +59,7 @@ PairCoefficients Case::pair_coefficients(int a, int b) const {
 
 bool needs_contact_history(const std::vector<PairCoefficients>& table) {
   return std::any_of(table.begin(), table.end(), [](const PairCoefficients& c) {
-    return c.cohesion == CohesionModel::kJkr ||
+    return c.cohesion != CohesionModel::kNone ||
            (c.rolling_model == RollingModel::kEpsd && c.rolling_friction > 0.0);
   });
 }

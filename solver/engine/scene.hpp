@@ -62,8 +62,10 @@ struct Scene {
 /// Build the scene of a validated case; particle ids are their list positions.
 Scene build_scene(const Case& description);
 
-/// Whether some pair of @p table keeps history beyond the tangential spring: EPSD rolling
-/// springs or JKR contacts (then Particles::contact_history and PairHistory carry it).
+/// Whether some pair of @p table has cohesion or EPSD rolling: then Particles::contact_history
+/// and PairHistory carry the JKR flags and EPSD springs, and the kernels compiled for that storage
+/// evaluate those models (sJKR needs no history but is evaluated only there: a run without any of
+/// them keeps the plain kernel).
 bool needs_contact_history(const std::vector<PairCoefficients>& table);
 
 /// Mass of a sphere of the given radius and density.

@@ -49,14 +49,14 @@ Stepper::Stepper(Scene& scene, const StepperState& restored, PairFlag pair_flag)
   laser_missed_ = restored.laser_missed;
 }
 
-template <bool kFriction, class Law>
+template <bool kFriction, bool kModels, class Law>
 ContactSummary Stepper::evaluate_forces(const Law& law) {
   const BondingCriterion criterion{scene_.particles, pair_forces_.bonded,
                                    pair_flag_ ? &pair_flag_ : nullptr};
-  ContactSummary pairs = compute_pair_forces<kFriction>(scene_.particles, scene_, list_, law,
-                                                        criterion, pair_forces_, history_);
-  const ContactSummary walls =
-      gather_forces<kFriction>(scene_.particles, scene_, list_, law, pair_forces_, wall_forces_);
+  ContactSummary pairs = compute_pair_forces<kFriction, kModels>(
+      scene_.particles, scene_, list_, law, criterion, pair_forces_, history_);
+  const ContactSummary walls = gather_forces<kFriction, kModels>(scene_.particles, scene_, list_,
+                                                                 law, pair_forces_, wall_forces_);
   pairs.wall_contacts = walls.wall_contacts;
   pairs.max_overlap = std::max(pairs.max_overlap, walls.max_overlap);
   pairs.max_overlap_fraction = std::max(pairs.max_overlap_fraction, walls.max_overlap_fraction);
@@ -66,8 +66,14 @@ ContactSummary Stepper::evaluate_forces(const Law& law) {
 
 void Stepper::compute_forces(double laser_time) {
   // Pair slots are sized for the current list by apply_slips, which follows every build.
+  // Compiled per storage need: tangential springs (friction) and the contact history of cohesion
+  // and EPSD rolling (Particles::contact_history); every other choice is the pair's, at run time.
+  const bool models = scene_.particles.contact_history;
   contacts_ = with_normal_law(scene_.normal_law, [&](const auto& law) {
-    return scene_.friction ? evaluate_forces<true>(law) : evaluate_forces<false>(law);
+    if (scene_.friction) {
+      return models ? evaluate_forces<true, true>(law) : evaluate_forces<true, false>(law);
+    }
+    return models ? evaluate_forces<false, true>(law) : evaluate_forces<false, false>(law);
   });
   deposit_laser(laser_time);
 }

@@ -116,7 +116,7 @@ class Stepper {
   /// which the laser deposits heat during this step.
   void compute_forces(double laser_time);
   /// Both passes with the normal-force law @p law; returns what they saw, merged.
-  template <bool kFriction, class Law>
+  template <bool kFriction, bool kModels, class Law>
   ContactSummary evaluate_forces(const Law& law);
   /// The laser's heat deposit of this step into p.heat_rate (thermal runs with a laser).
   void deposit_laser(double laser_time);

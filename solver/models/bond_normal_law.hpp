@@ -34,9 +34,11 @@ struct BondNormalLaw {
     if (!(criterion_met && overlap > pair.critical_overlap)) {
       return {hertz_contact_force(pair, overlap, overlap_rate), false};
     }
-    return pair.alpha == 1.0
-               ? normal_force(pair, LinearAdhesion{}, overlap, overlap_rate, true)
-               : normal_force(pair, GeneralAdhesion{pair.alpha}, overlap, overlap_rate, true);
+    // Eq. 25's adhesive branch (normal_force), its test already made.
+    return {pair.alpha == 1.0
+                ? bond_force(pair, LinearAdhesion{}, overlap, overlap_rate)
+                : bond_force(pair, GeneralAdhesion{pair.alpha}, overlap, overlap_rate),
+            true};
   }
   double friction_load(const Pair& pair, const NormalForce& f, double overlap) const {
     return bondem::friction_load(pair, f, overlap);
