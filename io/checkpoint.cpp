@@ -361,6 +361,8 @@ void write_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
   if (p.thermal()) put_section(CheckpointSection::kThermal);
   payload.put(static_cast<std::uint8_t>(p.contact_history ? 1 : 0));
   if (p.contact_history) put_section(CheckpointSection::kContactHistory);
+  payload.put(static_cast<std::uint8_t>(p.displacement_tracked ? 1 : 0));
+  if (p.displacement_tracked) put_section(CheckpointSection::kDisplacement);
   payload.put(checkpoint.history);
 
   AtomicFile file(path, std::ios::binary);
@@ -487,6 +489,8 @@ Checkpoint read_checkpoint(const std::string& path) {
   if (r.get<std::uint8_t>() != 0) get_section(CheckpointSection::kThermal);
   p.contact_history = r.get<std::uint8_t>() != 0;
   if (p.contact_history) get_section(CheckpointSection::kContactHistory);
+  p.displacement_tracked = r.get<std::uint8_t>() != 0;
+  if (p.displacement_tracked) get_section(CheckpointSection::kDisplacement);
   c.history = r.get_text();
   if (!r.at_end()) r.fail("trailing bytes");
   // A field the table does not checkpoint restarts from zero, sized like the others, so that it

@@ -25,13 +25,14 @@ inline constexpr std::uint32_t kCheckpointVersion = 5;
 
 /// Where a checkpointed particle field sits in the file: per-particle arrays right after the
 /// particle count, per-wall arrays after the wall count, thermal arrays after the thermal flag,
-/// contact-history arrays after their flag.
-enum class CheckpointSection { kParticle, kWall, kThermal, kContactHistory };
+/// contact-history arrays after their flag, displacements after theirs.
+enum class CheckpointSection { kParticle, kWall, kThermal, kContactHistory, kDisplacement };
 
 /// The section of @p field.
 constexpr CheckpointSection checkpoint_section(const ParticleField& field) {
   if (has(field, kThermal)) return CheckpointSection::kThermal;
   if (has(field, kContactHistory)) return CheckpointSection::kContactHistory;
+  if (has(field, kDisplacementField)) return CheckpointSection::kDisplacement;
   return has(field, kPerWall) ? CheckpointSection::kWall : CheckpointSection::kParticle;
 }
 
@@ -58,22 +59,22 @@ inline constexpr std::string_view kCheckpointParticleLayout[] = {"id",
                                                                  "tx",
                                                                  "ty",
                                                                  "tz",
-                                                                 "dx",
-                                                                 "dy",
-                                                                 "dz",
                                                                  "wall_slip",
                                                                  "temperature",
                                                                  "peak_temperature",
                                                                  "inv_heat_capacity",
                                                                  "heat_rate",
-                                                                 "wall_contact"};
+                                                                 "wall_contact",
+                                                                 "dx",
+                                                                 "dy",
+                                                                 "dz"};
 
 /// Whether the checkpointed rows of kParticleFields, in file order, are kCheckpointParticleLayout.
 constexpr bool checkpoint_layout_unchanged() {
   std::size_t k = 0;
   for (const CheckpointSection section :
        {CheckpointSection::kParticle, CheckpointSection::kWall, CheckpointSection::kThermal,
-        CheckpointSection::kContactHistory}) {
+        CheckpointSection::kContactHistory, CheckpointSection::kDisplacement}) {
     for (const ParticleField& field : kParticleFields) {
       if (!has(field, kCheckpointed) || checkpoint_section(field) != section) continue;
       if (k == std::size(kCheckpointParticleLayout) || kCheckpointParticleLayout[k] != field.name) {

@@ -422,6 +422,11 @@ RunResult run_case(const Case& description, const RunOptions& options, std::ostr
   if (plan.restarting) {
     Checkpoint restored = read_fitting_checkpoint(description, options, plan, scene);
     scene.particles = std::move(restored.particles);
+    // A restart that writes VTK frames the interrupted run did not track displacements from
+    // here, from zero.
+    if (description.vtk_interval > 0.0 && !scene.particles.displacement_tracked) {
+      scene.particles.track_displacement();
+    }
     stepper.emplace(scene, restored.stepper);
     history_text = history_without_end_row(restored.history, restored.stepper.step,
                                            restored.stepper.time, plan.history_every);

@@ -33,6 +33,7 @@ Particles filled() {
   Particles p;
   p.walls = kWalls;
   p.contact_history = true;
+  p.displacement_tracked = true;
   std::size_t row = 0;
   for (const ParticleField& field : kParticleFields) {
     const std::size_t per = values_per_particle(field, p);
@@ -64,7 +65,8 @@ std::vector<double> values(const Particles& p, const ParticleField& field) {
 TEST(ParticleFields, AddGrowsEveryFieldInUse) {
   for (const bool thermal : {false, true}) {
     Particles p;
-    p.contact_history = thermal;  // both kinds of optional field, on and off
+    p.contact_history = thermal;  // every kind of optional field, on and off
+    p.displacement_tracked = thermal;
     p.set_wall_count(kWalls);
     const double position[3] = {1.0, 2.0, 3.0};
     const double velocity[3] = {4.0, 5.0, 6.0};
@@ -146,6 +148,7 @@ TEST(ParticleFields, CheckpointKeepsEveryCheckpointedFieldExactly) {
     written.particles = filled();
     // Without temperatures, also without contact history: each optional section both ways.
     written.particles.contact_history = thermal;
+    written.particles.displacement_tracked = thermal;
     if (!thermal) {
       for (const ParticleField& field : kParticleFields) {
         if (!in_use(field, written.particles) || has(field, kThermal)) {

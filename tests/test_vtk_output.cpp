@@ -60,6 +60,7 @@ Particles make_particles() {
     p.add(1000 + 7 * static_cast<std::int64_t>(i), static_cast<std::int32_t>(i % 3),
           1e-4 * (1.0 + k / 97.0), 1e-9 * (1.0 + k), position, velocity);
   }
+  p.track_displacement();
   return p;
 }
 

@@ -39,8 +39,10 @@ struct Particles {
   std::vector<double> wx, wy, wz;  ///< angular velocity [rad/s]
   std::vector<double> tx, ty, tz;  ///< torque [N m]
   /// Displacement since the particle entered the run [m], summed from the drift's own position
-  /// increments: x - x0 up to rounding, and not wrapped across periodic boundaries.
+  /// increments: x - x0 up to rounding, and not wrapped across periodic boundaries. Tracked only
+  /// when displacement_tracked (the run writes VTK frames, its one reader): 24 B a particle.
   std::vector<double> dx, dy, dz;
+  bool displacement_tracked = false;
   /// Tangential spring elongation against each wall, 3 values per wall, wall_count() per particle.
   std::vector<double> wall_slip;
   int walls = 0;  ///< walls with a slot in wall_slip
@@ -58,6 +60,9 @@ struct Particles {
 
   /// Whether temperatures are tracked.
   bool thermal() const { return !temperature.empty(); }
+
+  /// Start tracking displacements (the kDisplacementField fields), from zero.
+  void track_displacement();
 
   /// Give every particle zeroed history slots (tangential, and the contact_history ones when in
   /// use) for each of @p wall_count walls.
@@ -103,6 +108,8 @@ enum ParticleFieldFlag : unsigned {
   kPerWall = 1U << 4U,       ///< wall_values per wall slot and particle (Particles::walls), not 1
   /// Present (non-empty) only when Particles::contact_history (EPSD rolling or JKR cohesion).
   kContactHistory = 1U << 5U,
+  /// Present (non-empty) only when Particles::displacement_tracked.
+  kDisplacementField = 1U << 6U,
 };
 
 /// Pointer to one array of Particles, of any of the element types the table holds.
@@ -153,9 +160,9 @@ inline constexpr ParticleField kParticleFields[] = {
     {"tx", &Particles::tx, kReordered | kCheckpointed, "torque", 0, 22},
     {"ty", &Particles::ty, kReordered | kCheckpointed, "torque", 1, 22},
     {"tz", &Particles::tz, kReordered | kCheckpointed, "torque", 2, 22},
-    {"dx", &Particles::dx, kReordered | kCheckpointed, "displacement", 0, 23},
-    {"dy", &Particles::dy, kReordered | kCheckpointed, "displacement", 1, 23},
-    {"dz", &Particles::dz, kReordered | kCheckpointed, "displacement", 2, 23},
+    {"dx", &Particles::dx, kReordered | kCheckpointed | kDisplacementField, "displacement", 0, 23},
+    {"dy", &Particles::dy, kReordered | kCheckpointed | kDisplacementField, "displacement", 1, 23},
+    {"dz", &Particles::dz, kReordered | kCheckpointed | kDisplacementField, "displacement", 2, 23},
     {"wall_slip", &Particles::wall_slip, kReordered | kCheckpointed | kPerWall},
     {"wall_contact",
      &Particles::wall_contact,
@@ -188,7 +195,8 @@ inline std::size_t values_per_particle(const ParticleField& field, const Particl
 /// history fields only when some pair keeps it.
 inline bool in_use(const ParticleField& field, const Particles& p) {
   return (!has(field, kThermal) || p.thermal()) &&
-         (!has(field, kContactHistory) || p.contact_history);
+         (!has(field, kContactHistory) || p.contact_history) &&
+         (!has(field, kDisplacementField) || p.displacement_tracked);
 }
 
 /// Consistency of the table, checked at compile time: unique names; a vector's three components
@@ -264,6 +272,15 @@ inline void Particles::permute(const std::vector<std::uint32_t>& order) {
           values.swap(reordered);
         },
         field.member);
+  }
+}
+
+inline void Particles::track_displacement() {
+  displacement_tracked = true;
+  for (const ParticleField& field : kParticleFields) {
+    if (has(field, kDisplacementField)) {
+      std::visit([&](auto member) { (this->*member).assign(size(), {}); }, field.member);
+    }
   }
 }
 

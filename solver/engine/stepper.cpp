@@ -177,6 +177,7 @@ void Stepper::drift(double dt) {
   Particles& p = scene_.particles;
   const double half_dt = 0.5 * dt;
   const std::size_t n = p.size();
+  const bool track_displacement = p.displacement_tracked;
   // Tools move with the velocity prescribed at the start of the step.
   for (Body& body : scene_.bodies) {
     body.velocity = velocity_at(body, time_);
@@ -196,9 +197,11 @@ void Stepper::drift(double dt) {
     p.x[i] += step_x;
     p.y[i] += step_y;
     p.z[i] += step_z;
-    p.dx[i] += step_x;
-    p.dy[i] += step_y;
-    p.dz[i] += step_z;
+    if (track_displacement) {
+      p.dx[i] += step_x;
+      p.dy[i] += step_y;
+      p.dz[i] += step_z;
+    }
   }
   if (scene_.friction) kick_spin(half_dt);
   // Two particles moving toward each other close the gap by twice the largest displacement:
