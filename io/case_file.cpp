@@ -1133,6 +1133,10 @@ void read_interactions(const Reader& reader, const YAML::Node& root, Case& c) {
     interaction.model = c.contact;
     read_contact_model(reader, c, entry, path, false, interaction.model);
     if (const YAML::Node bond = entry["bond"]) {
+      if (std::holds_alternative<HookeLawSpec>(c.normal_law)) {
+        reader.fail(bond, path + ".bond",
+                    "contact.normal_law hooke has no adhesion: a bond never forms");
+      }
       read_bond_keys(reader, c, bond, path + ".bond", !root["bond"], interaction.model.bond);
     }
     c.interactions.push_back(interaction);

@@ -152,12 +152,15 @@ TEST(Interactions, BadInputIsRefusedWithTheKeyNamed) {
             std::string::npos);
 }
 
-TEST(Interactions, JkrNeedsTheHertzLaw) {
+TEST(Interactions, JkrAndBondsNeedTheHertzLaw) {
   const std::string hooke = replace(
       replace(kTwoMaterials, "contact:\n", "contact:\n  normal_law: hooke\n  stiffness: 1.0e3\n"),
       "bond:\n  alpha: 1\n  equilibrium_overlap: 1.0e-6\n  damping_ratio: 1.0\n  criterion: "
       "always\n",
       "");
+  // The linear law has no adhesion: an entry's bond block is refused as the top-level one is.
+  EXPECT_NE(error_of(hooke).find("'interactions.0.bond': contact.normal_law hooke has no adhesion"),
+            std::string::npos);
   const std::string e =
       error_of(replace(replace(hooke, "    bond: {criterion: never}\n", ""),
                        "{model: sjkr, energy_density: 1000}", "{model: jkr, surface_energy: 0.1}"));
