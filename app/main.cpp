@@ -86,12 +86,20 @@ void print_contact_model(const Case& c, const bondem::PairCoefficients& pair) {
   }
 }
 
-/// JKR quantities of a pair of effective radius @p r_star: pull-off force and separation overlap.
-void print_cohesion_scales(const bondem::PairCoefficients& pair, double r_star) {
+/// JKR quantities of a pair of effective radius @p r_star: pull-off force, separation overlap and,
+/// for a particle pair of effective mass @p m_star (0 for a wall or tool), the sticking velocity.
+void print_cohesion_scales(const bondem::PairCoefficients& pair, double r_star, double m_star) {
   if (pair.cohesion != bondem::CohesionModel::kJkr) return;
-  print_quantity("jkr_pull_off_force", bondem::jkr_pull_off_force(r_star, pair.cohesion_energy),
-                 "N");
+  const double w = pair.cohesion_energy;
+  print_quantity("jkr_pull_off_force", bondem::jkr_pull_off_force(r_star, w), "N");
   print_quantity("jkr_separation_overlap", bondem::separation_overlap(pair, r_star), "m");
+  if (m_star > 0.0) {
+    // Below it an undamped pair cannot pay one JKR cycle's loss: 1/2 m* V^2 = W.
+    print_quantity(
+        "jkr_sticking_velocity",
+        std::sqrt(2.0 * bondem::jkr_cycle_energy_loss(r_star, pair.effective_modulus, w) / m_star),
+        "m/s");
+  }
 }
 
 int run_info(const std::string& case_path, const std::vector<std::string>& overrides,
@@ -118,7 +126,7 @@ int run_info(const std::string& case_path, const std::vector<std::string>& overr
         print_contact_model(c, pair);
         // A material without particles meets the others only as a wall or tool: r* = r.
         const double radius = std::max(radii[a], radii[b]);
-        if (radius > 0.0) print_cohesion_scales(pair, radius);
+        if (radius > 0.0) print_cohesion_scales(pair, radius, 0.0);
         std::cout << "# no particles of one material: the pair's particle quantities skipped\n";
         continue;
       }
@@ -131,7 +139,7 @@ int run_info(const std::string& case_path, const std::vector<std::string>& overr
       print_quantity("effective_radius", r.effective_radius, "m");
       print_quantity("effective_mass", r.effective_mass, "kg");
       print_contact_model(c, pair);
-      print_cohesion_scales(pair, r.effective_radius);
+      print_cohesion_scales(pair, r.effective_radius, r.effective_mass);
       if (r.bonding) {
         print_quantity("alpha", pair.alpha, "");
         print_quantity("adhesion_stiffness", r.adhesion_stiffness,

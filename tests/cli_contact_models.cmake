@@ -69,6 +69,14 @@ if(NOT out MATCHES "^sticking_threshold = 0\\.40[0-9]+ m/s\nsticks_below = true\
   message(FATAL_ERROR "collide --threshold text output: ${out}")
 endif()
 
+# bondem info prints the energy-balance sticking velocity V_s = sqrt(2 W / m*) = 0.400322 m/s
+# that the bisection converges to as the step shrinks.
+expect_success(info ${TEST_CASES}/jkr_pair.yaml)
+if(NOT out MATCHES "jkr_sticking_velocity = ([0-9.e+-]+) m/s")
+  message(FATAL_ERROR "bondem info prints no JKR sticking velocity: ${out}")
+endif()
+expect_between(${CMAKE_MATCH_1} 0.40030 0.40035 "info's JKR sticking velocity")
+
 # The bond law sticks above its threshold (eq. 21: 2.5744 m/s for paper 5.2), as before.
 collide_json(${CASES}/paper_5_2.yaml --threshold 0.5:8)
 string(JSON threshold GET "${json}" sticking_threshold)

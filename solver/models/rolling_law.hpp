@@ -13,6 +13,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "solver/models/tangential_law.hpp"
+
 namespace bondem {
 
 /// Effective moment of inertia I* = I_i I_j / (I_i + I_j) = 1 / (1/I_i + 1/I_j) of a pair, from the
@@ -96,12 +98,7 @@ inline RollingSpringTorque epsd_rolling_torque(double rolling_stiffness, double 
                                                double limit, const Eigen::Vector3d& normal,
                                                const Eigen::Vector3d& spring,
                                                const Eigen::Vector3d& relative_spin, double dt) {
-  Eigen::Vector3d m = spring - spring.dot(normal) * normal;
-  // Rescale to the stored length; squared norms spare the square roots of a fresh contact
-  // (zero spring) and of a spring already in the plane.
-  const double before_sq = spring.squaredNorm();
-  const double after_sq = m.squaredNorm();
-  if (after_sq > 0.0 && after_sq != before_sq) m *= std::sqrt(before_sq / after_sq);
+  Eigen::Vector3d m = rotate_into_tangent_plane(spring, normal);
   const Eigen::Vector3d rolling_spin = relative_spin - relative_spin.dot(normal) * normal;
   m -= rolling_stiffness * (rolling_spin * dt);
   const double magnitude_sq = m.squaredNorm();

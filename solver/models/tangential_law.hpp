@@ -34,6 +34,19 @@ inline Eigen::Vector3d sliding_velocity(const Eigen::Vector3d& contact_velocity,
   return contact_velocity - contact_velocity.dot(normal) * normal;
 }
 
+/// A stored spring @p spring (an elongation or a torque) turned into the tangent plane of the unit
+/// @p normal, keeping its length, so that a contact that rolls keeps what its spring holds.
+inline Eigen::Vector3d rotate_into_tangent_plane(const Eigen::Vector3d& spring,
+                                                 const Eigen::Vector3d& normal) {
+  Eigen::Vector3d s = spring - spring.dot(normal) * normal;
+  // Rescale to the stored length; squared norms spare the square roots of a fresh contact
+  // (zero spring) and of a spring already in the plane.
+  const double before_sq = spring.squaredNorm();
+  const double after_sq = s.squaredNorm();
+  if (after_sq > 0.0 && after_sq != before_sq) s *= std::sqrt(before_sq / after_sq);
+  return s;
+}
+
 /// Cundall-Strack tangential spring with history.
 /// @param normal        unit n_ij (from i to j)
 /// @param slip          elongation stored last step (any orientation; projected here)
@@ -47,12 +60,7 @@ inline TangentialForce tangential_force(double stiffness, double damping, double
                                         double load, const Eigen::Vector3d& normal,
                                         const Eigen::Vector3d& slip,
                                         const Eigen::Vector3d& sliding_velocity, double dt) {
-  Eigen::Vector3d s = slip - slip.dot(normal) * normal;
-  // Rescale to the stored length; squared norms spare the square roots of a fresh contact
-  // (zero spring) and of a spring already in the plane.
-  const double before_sq = slip.squaredNorm();
-  const double after_sq = s.squaredNorm();
-  if (after_sq > 0.0 && after_sq != before_sq) s *= std::sqrt(before_sq / after_sq);
+  Eigen::Vector3d s = rotate_into_tangent_plane(slip, normal);
   s += sliding_velocity * dt;
   Eigen::Vector3d force = stiffness * s + damping * sliding_velocity;
   const double limit = friction * load;
