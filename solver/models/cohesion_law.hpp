@@ -16,7 +16,8 @@
 ///   delta(a) = a^2 / r* - sqrt(2 pi w a / E*)
 /// Lengths of the problem: a_0 = (2 pi w r*^2 / E*)^(1/3), the radius at delta = 0, and
 /// delta_0 = a_0^2 / r*. In x = sqrt(a) the overlap relation is the quartic
-/// x^4 - c r* x - r* delta = 0, c = sqrt(2 pi w / E*), solved here in closed form (Ferrari).
+/// x^4 - c r* x - r* delta = 0, c = sqrt(2 pi w / E*), solved here by Newton from fitted starts,
+/// with the closed form (Ferrari) next to the separation point.
 
 #include <cmath>
 #include <numbers>
@@ -75,11 +76,37 @@ inline double largest_quartic_root_small(double d) {
   return 0.5 * (std::sqrt(2.0 * m) + std::sqrt(spread));
 }
 
-/// Largest root y of y^4 - e y - 1 = 0 for 0 <= e <= 1. Ferrari with m^3 + m = e^2 / 8, where
-/// e sqrt(2 / m) = 4 sqrt(1 + m^2) keeps e = 0 (m = 0, y = 1) free of 0 / 0.
-inline double largest_quartic_root_large(double e) {
-  const double m = cardano_positive_root(1.0, 0.125 * e * e);
-  return 0.5 * (std::sqrt(2.0 * m) + std::sqrt(4.0 * std::sqrt(1.0 + m * m) - 2.0 * m));
+/// Largest root y of y^4 - y - d = 0 for d >= -0.42 (above the fold at -0.4725): Newton from a
+/// degree-4 Chebyshev interpolant of y in s = sqrt(d - d_fold) (y ~ y_fold + const s at the fold,
+/// so the interpolant in s stays accurate there; max relative error 5.5e-5 on s in
+/// [0, sqrt(1 - d_fold)]). Two steps reach round-off: measured against a long double root,
+/// 2.8e-16 relative over d in [-0.42, 1] (7.5e-9 after one). A fixed count keeps it branch-free
+/// and the same on every run; below -0.42 f' = 4 y^3 - 1 is too small for two steps.
+inline double largest_quartic_root_small_newton(double d) {
+  const double s = std::sqrt(d + 0.75 / 1.5874010519681994);  // d - d_fold, 4^(1/3) = 1.5874...
+  double y =
+      0.63002244409362767 +
+      s * (0.64545782372449866 +
+           s * (-0.20353290820808111 + s * (0.081096178886726316 + s * -0.017410656750496233)));
+  for (int i = 0; i < 2; ++i) {
+    const double y2 = y * y;
+    y -= (y2 * y2 - y - d) / (4.0 * y2 * y - 1.0);
+  }
+  return y;
+}
+
+/// Largest root y of y^4 - e y - 1 = 0 for 0 <= e <= 1 (y from 1 to 1.2207): Newton from a cubic
+/// Chebyshev interpolant in e (max relative error 7.2e-6), two steps: measured 2.0e-16 relative
+/// against a long double root (7.8e-11 after one). f' = 4 y^3 - e >= 3, no fold here. At e = 0
+/// the start is 1 - 7.2e-6 and the steps land on y = 1 exactly (Hertz).
+inline double largest_quartic_root_large_newton(double e) {
+  double y = 0.9999927962064976 +
+             e * (0.25023804398659969 + e * (-0.032646739903263431 + e * 0.0031576754025178589));
+  for (int i = 0; i < 2; ++i) {
+    const double y2 = y * y;
+    y -= (y2 * y2 - e * y - 1.0) / (4.0 * y2 * y - e);
+  }
+  return y;
 }
 
 }  // namespace detail
@@ -87,26 +114,34 @@ inline double largest_quartic_root_large(double e) {
 /// JKR contact radius a at @p overlap on the stable branch (d a / d delta > 0), for overlap >=
 /// jkr_separation_overlap (below it the radius at separation is returned); exactly the Hertz
 /// sqrt(r* delta) when w = 0 (and 0 for delta <= 0 then).
-/// Closed form: with x = sqrt(a), x^4 - c r* x - r* delta = 0. For delta <= delta_0 the scaling
-/// x = sqrt(a_0) y gives y^4 - y - delta / delta_0 = 0; above, x = (r* delta)^(1/4) y gives
-/// y^4 - e y - 1 = 0 with e = (delta_0 / delta)^(3/4) <= 1, which reduces to Hertz (y = 1) as
-/// w -> 0. Both quartics have bounded coefficients, so nothing overflows for any w >= 0.
+/// With x = sqrt(a), x^4 - c r* x - r* delta = 0. For delta > delta_0 the scaling
+/// x = (r* delta)^(1/4) y gives y^4 - e y - 1 = 0 with e = (delta_0 / delta)^(3/4) < 1, which
+/// reduces to Hertz (y = 1) as w -> 0; below, x = sqrt(a_0) y gives y^4 - y - delta / delta_0 = 0.
+/// Both quartics have bounded coefficients, so nothing overflows for any w >= 0. Each is solved
+/// by two Newton steps from a fitted start (no cube root above delta_0, one below), except next
+/// to the separation point (delta / delta_0 < -0.42), where Newton's derivative vanishes and the
+/// closed form (Ferrari) takes over. About 4 times cheaper than the closed form everywhere.
 /// Backward stable: the result is the exact radius of an overlap within a few ulps of @p overlap.
 /// Near the separation point d a / d delta is infinite, so there its forward error grows like
 /// eps delta_0 / (d delta / d a) (about 1e-10 relative at 1e-6 relative distance from a_s).
 inline double jkr_contact_radius(double overlap, double r_star, double e_star, double w) {
-  const double c = std::sqrt(2.0 * std::numbers::pi * w / e_star);
-  const double a0 = std::cbrt(c * c * r_star * r_star);  // (c r*)^(2/3)
-  const double delta0 = a0 * a0 / r_star;
-  if (overlap > delta0) {
+  // (c r*)^2 = 2 pi w r*^2 / E* = a_0^3
+  const double a0_cubed = 2.0 * std::numbers::pi * w * r_star * r_star / e_star;
+  if (overlap > 0.0) {
     const double hertz_radius = std::sqrt(r_star * overlap);
-    // e = c r* / (r* delta)^(3/4) = (delta_0 / delta)^(3/4)
-    const double e = c * r_star / (hertz_radius * std::sqrt(hertz_radius));
-    const double y = detail::largest_quartic_root_large(e);
-    return hertz_radius * y * y;
+    // e^2 = (c r*)^2 / (r* delta)^(3/2) = (delta_0 / delta)^(3/2): e < 1 iff delta > delta_0,
+    // decided without the cube root of a_0.
+    const double e_squared = a0_cubed / (hertz_radius * hertz_radius * hertz_radius);
+    if (e_squared < 1.0) {
+      const double y = detail::largest_quartic_root_large_newton(std::sqrt(e_squared));
+      return hertz_radius * y * y;
+    }
   }
-  if (!(delta0 > 0.0)) return 0.0;  // w = 0: no contact at delta <= 0
-  const double y = detail::largest_quartic_root_small(overlap / delta0);
+  if (!(a0_cubed > 0.0)) return 0.0;  // w = 0: no contact at delta <= 0
+  const double a0 = std::cbrt(a0_cubed);
+  const double d = overlap * r_star / (a0 * a0);  // delta / delta_0
+  const double y = d >= -0.42 ? detail::largest_quartic_root_small_newton(d)
+                              : detail::largest_quartic_root_small(d);
   return a0 * y * y;
 }
 
