@@ -170,6 +170,32 @@ TEST(CohesionJkr, ContactRadiusAtZeroOverlapAndAcrossTheBranchSwitch) {
   }
 }
 
+// The radius comes from Newton steps with fitted starts (fixed count, so the fit's worst point
+// matters) except next to the separation point (delta < -0.42 delta_0), where the closed form
+// takes over. A dense sweep of both pairs checks the backward error everywhere, and the two
+// solvers must meet at their switch.
+TEST(CohesionJkr, NewtonStepsAreBackwardStableOnADenseSweepAndMeetTheClosedForm) {
+  for (const JkrPair& p : kPairs) {
+    const double a_sep = separation_radius(p);
+    for (double excess = 1e-4; excess < 30.0; excess *= 1.003) {
+      const double a = a_sep * (1.0 + excess);
+      const double overlap = overlap_of_radius(p, a);
+      const double radius = jkr_contact_radius(overlap, p.r_star, p.e_star, p.w);
+      const double scale = a * a / p.r_star + std::sqrt(2.0 * kPi * p.w * a / p.e_star);
+      ASSERT_NEAR(overlap_of_radius(p, radius), overlap, 8.0 * kEps * scale) << "excess " << excess;
+    }
+    const double a0 = radius_at_zero_overlap(p);
+    const double delta0 = a0 * a0 / p.r_star;
+    const double newton =
+        jkr_contact_radius(-0.42 * delta0 * (1.0 - kEps), p.r_star, p.e_star, p.w);
+    const double closed_form =
+        jkr_contact_radius(-0.42 * delta0 * (1.0 + kEps), p.r_star, p.e_star, p.w);
+    // d a / d delta is finite there (y = 0.768, f' = 4 y^3 - 1 = 0.81 in the scaled quartic): the
+    // overlaps 2 ulps apart move a by ~3 ulps, each solver adds a few.
+    EXPECT_NEAR(newton, closed_form, 16.0 * kEps * closed_form);
+  }
+}
+
 TEST(CohesionJkr, PullOffIsTheLeastLoad) {
   for (const JkrPair& p : kPairs) {
     const double pull_off = jkr_pull_off_force(p.r_star, p.w);
