@@ -483,6 +483,95 @@ TEST(StlReader, DegenerateFacetsDroppedAndCountedOrRefused) {
             slivers.string() + ": no facet with a non-zero area (2 degenerate)");
 }
 
+TriangleMesh mesh_of(const std::vector<std::array<Vector3d, 3>>& facets) {
+  TriangleMesh mesh;
+  for (const auto& f : facets) {
+    const int first = static_cast<int>(mesh.vertices.size());
+    mesh.vertices.insert(mesh.vertices.end(), f.begin(), f.end());
+    mesh.triangles.push_back({first, first + 1, first + 2});
+  }
+  compute_normals(mesh);
+  return mesh;
+}
+
+TEST(TriangleMesh, InsideCornerOfAMeshBoxEqualsTheAnalyticBox) {
+  // Inside the unit cube near the corner at the origin: three faces, three contacts with the
+  // box's gaps and inward normals; the cube's edges and corner add nothing. (0.05, 0.05, 0.05)
+  // projects onto the split diagonal of all three faces (edge regions only).
+  const TriangleMesh mesh = mesh_of(cube_facets());
+  const TriangleGrid grid = build_triangle_grid(mesh, 0.5);
+  MeshQueryBuffer buffer;
+  for (const Vector3d& centre : {Vector3d(0.05, 0.06, 0.07), Vector3d(0.05, 0.05, 0.05)}) {
+    const auto contacts = mesh_contacts(mesh, grid, centre, 0.1, buffer);
+    ASSERT_EQ(contacts.size(), 3U) << centre.transpose();
+    std::array<bool, 3> seen{};
+    for (const MeshContact& c : contacts) {
+      Eigen::Index axis = 0;
+      c.normal.cwiseAbs().maxCoeff(&axis);
+      seen[axis] = true;
+      EXPECT_NEAR(c.gap, centre[axis], kRoundOff);
+      EXPECT_NEAR((c.normal - Vector3d::Unit(axis)).norm(), 0.0, kRoundOff);
+    }
+    EXPECT_TRUE(seen[0] && seen[1] && seen[2]);
+  }
+}
+
+TEST(TriangleMesh, FloorBesideAStepRimTwoContacts) {
+  // A floor z = 0 (x > 0) meets a step 0.05 high (x < 0): a sphere over the floor close to the
+  // step touches the floor and the step's convex rim; both are kept (faces go first, and the rim
+  // is in front of the floor's plane), the rim once although four triangles report it.
+  const auto quad = [](Vector3d a, Vector3d b, Vector3d c, Vector3d d) {
+    return std::vector<std::array<Vector3d, 3>>{{a, b, c}, {a, c, d}};
+  };
+  std::vector<std::array<Vector3d, 3>> facets;
+  for (const auto& q : {quad({0, -1, 0}, {2, -1, 0}, {2, 1, 0}, {0, 1, 0}),
+                        quad({0, -1, 0}, {0, 1, 0}, {0, 1, 0.05}, {0, -1, 0.05}),
+                        quad({-1, -1, 0.05}, {0, -1, 0.05}, {0, 1, 0.05}, {-1, 1, 0.05})})
+    facets.insert(facets.end(), q.begin(), q.end());
+  const TriangleMesh mesh = mesh_of(facets);
+  const TriangleGrid grid = build_triangle_grid(mesh, 0.2);
+  MeshQueryBuffer buffer;
+  const Vector3d centre(0.02, 0.3, 0.09);
+  const auto contacts = mesh_contacts(mesh, grid, centre, 0.1, buffer);
+  ASSERT_EQ(contacts.size(), 2U);
+  EXPECT_TRUE(is_face(contacts[0].region));
+  EXPECT_NEAR(contacts[0].gap, 0.09, kRoundOff);
+  const Vector3d to_rim = centre - Vector3d(0, 0.3, 0.05);
+  EXPECT_FALSE(is_face(contacts[1].region));
+  EXPECT_NEAR(contacts[1].gap, to_rim.norm(), kRoundOff);
+  EXPECT_NEAR((contacts[1].normal - to_rim.normalized()).norm(), 0.0, kRoundOff);
+}
+
+TEST(TriangleMesh, FlippedWindingGivesTheSameContacts) {
+  // The mesh is two-sided: the normal points from the surface to the centre whatever the winding.
+  const TriangleMesh mesh = uv_sphere(16, 8);
+  TriangleMesh flipped = mesh;
+  for (auto& t : flipped.triangles) std::swap(t[1], t[2]);
+  compute_normals(flipped);
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  MeshQueryBuffer a_buffer;
+  MeshQueryBuffer b_buffer;
+  int touching = 0;
+  for (int k = 0; k < 2000; ++k) {
+    const Vector3d centre =
+        Vector3d(unit(rng), unit(rng), unit(rng)).normalized() * (1.0 + 0.2 * unit(rng));
+    const auto a = mesh_contacts_brute_force(mesh, centre, 0.25, a_buffer);
+    const auto b = mesh_contacts_brute_force(flipped, centre, 0.25, b_buffer);
+    ASSERT_EQ(a.size(), b.size());
+    touching += a.empty() ? 0 : 1;
+    for (std::size_t c = 0; c < a.size(); ++c) {
+      // The triangle may differ: at a shared edge or vertex the neighbours' gaps agree to
+      // round-off, which the swapped corners change.
+      EXPECT_NEAR((a[c].point - b[c].point).norm(), 0.0, kRoundOff);
+      // An edge or vertex normal is (c - q) / gap: the point's round-off divided by the gap.
+      EXPECT_NEAR((a[c].normal - b[c].normal).norm(), 0.0, kRoundOff * (1.0 + 1.0 / a[c].gap));
+      EXPECT_NEAR(a[c].gap, b[c].gap, kRoundOff);
+    }
+  }
+  EXPECT_GT(touching, 1500);
+}
+
 // --- cost ------------------------------------------------------------------------------------
 
 TEST(TriangleMesh, QueryCostOfA100kTrianglePlane) {
@@ -514,17 +603,30 @@ TEST(TriangleMesh, QueryCostOfA100kTrianglePlane) {
     }
   }
   const auto t4 = std::chrono::steady_clock::now();
+  // In a run the particles are sorted by cell: the same spheres in row order.
+  std::sort(centres.begin(), centres.end(), [n](const Vector3d& a, const Vector3d& b) {
+    const auto row_a = static_cast<int>(a.y() * n);
+    const auto row_b = static_cast<int>(b.y() * n);
+    return row_a != row_b ? row_a < row_b : a.x() < b.x();
+  });
+  std::size_t sorted_contacts = 0;
+  const auto t5 = std::chrono::steady_clock::now();
+  for (const Vector3d& c : centres)
+    sorted_contacts += mesh_contacts(mesh, grid, c, radius, buffer).size();
+  const auto t6 = std::chrono::steady_clock::now();
+  EXPECT_EQ(sorted_contacts, centres.size());
   EXPECT_EQ(contacts, centres.size());
   EXPECT_EQ(plane_contacts, centres.size());
   const auto queries = static_cast<double>(centres.size());
   const auto seconds = [](auto a, auto b) { return std::chrono::duration<double>(b - a).count(); };
   std::printf(
       "100352-triangle plane: grid build %.1f ms (%d x %d x %d cells, %zu entries); "
-      "%.0f ns per sphere query, %.2e contacts/s; analytic plane %.1f ns per sphere "
-      "(sink %g)\n",
+      "%.0f ns per sphere query, %.2e contacts/s (spheres sorted by row: %.0f ns); analytic "
+      "plane %.1f ns per sphere (sink %g)\n",
       1e3 * seconds(t0, t1), grid.cells[0], grid.cells[1], grid.cells[2],
       grid.cell_triangles.size(), 1e9 * seconds(t2, t3) / queries,
-      static_cast<double>(contacts) / seconds(t2, t3), 1e9 * seconds(t3, t4) / queries, sink);
+      static_cast<double>(contacts) / seconds(t2, t3), 1e9 * seconds(t5, t6) / queries,
+      1e9 * seconds(t3, t4) / queries, sink);
 }
 
 }  // namespace
