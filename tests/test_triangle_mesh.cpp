@@ -349,7 +349,7 @@ fs::path stl_path(const std::string& name) {
 
 fs::path write_ascii_stl(const std::string& name,
                          const std::vector<std::array<Vector3d, 3>>& facets) {
-  const fs::path path = stl_path(name);
+  fs::path path = stl_path(name);
   std::ofstream out(path);
   out << "solid cube\n";
   for (const auto& f : facets) {
@@ -364,7 +364,7 @@ fs::path write_ascii_stl(const std::string& name,
 
 fs::path write_binary_stl(const std::string& name,
                           const std::vector<std::array<Vector3d, 3>>& facets) {
-  const fs::path path = stl_path(name);
+  fs::path path = stl_path(name);
   std::ofstream out(path, std::ios::binary);
   // A header beginning with "solid", as some exporters write: the size decides, not the text.
   std::string header = "solid binary cube";
@@ -587,6 +587,7 @@ TEST(TriangleMesh, QueryCostOfA100kTrianglePlane) {
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> u(0.01, 0.99);
   std::vector<Vector3d> centres;
+  centres.reserve(200000);
   for (int k = 0; k < 200000; ++k) centres.emplace_back(u(rng), u(rng), radius * u(rng));
   MeshQueryBuffer buffer;
   std::size_t contacts = 0;
