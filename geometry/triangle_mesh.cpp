@@ -195,8 +195,8 @@ std::span<const MeshContact> mesh_contacts(const TriangleMesh& mesh, const Trian
                                            MeshQueryBuffer& buffer) {
   buffer.triangles.clear();
   query_triangles(grid, centre, radius, buffer.triangles);
-  // Triangle index order makes the result independent of the grid's cell size.
-  std::sort(buffer.triangles.begin(), buffer.triangles.end());
+  // Candidates come in cell order; resolve_contacts sorts them by a total order (rank, gap,
+  // triangle), which makes the result independent of the grid.
   buffer.candidates.clear();
   MeshContact contact;
   for (const std::int32_t t : buffer.triangles)
