@@ -145,12 +145,14 @@ TEST(Spreading, CohesionLeavesASparserLayerWithMoreBareSubstrate) {
   ASSERT_TRUE(base.r.layer && cohesive.r.layer);
   const LayerMetrics& b = *base.r.layer;
   const LayerMetrics& k = *cohesive.r.layer;
-  // Solid fraction 0.097 (0.029-0.097) lower: 0.24 -> 0.14 at seed 7; bare fraction 0.28
-  // (0.10-0.28) higher: 0.16 -> 0.44; particles in the layer box 31 (14-31) fewer of 94.
+  // Seed 7: solid fraction 0.24 -> 0.18, bare fraction 0.16 -> 0.33, particles in the layer box
+  // 21 fewer of 94, blade load 1.62 times. Over 5 seeds (with the earlier closed-form JKR radius,
+  // the same law to the last bits, which a chaotic run amplifies): solid fraction 0.029-0.097
+  // lower, bare fraction 0.10-0.28 higher, 14-31 fewer particles, blade load 1.17-1.51 times.
   EXPECT_LT(k.solid_fraction, b.solid_fraction - 0.015);
   EXPECT_GT(k.empty_fraction, b.empty_fraction + 0.05);
   EXPECT_LT(k.particles + 5, b.particles);
-  // The cohesive heap is stronger: the blade pushes it with 1.44 (1.17-1.51) times the force.
+  // The cohesive heap is stronger: the blade pushes it harder.
   EXPECT_GT(cohesive.blade_load, 1.1 * base.blade_load);
   // No bond law: cohesion forms no bonded clusters; it holds contacts only.
   EXPECT_EQ(cohesive.r.clusters, 0u);
