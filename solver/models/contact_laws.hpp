@@ -62,7 +62,7 @@ template <bool kModels, class Law>
     const Law& law, const PairCoefficients& c, const typename Law::Pair& pair, double r_star,
     double m_star, double overlap, double overlap_rate, bool criterion_met) {
   // Every law call stays inline (a law pair passed out of line would live in memory); only
-  // JKR's closed form, which needs no law pair, is a call.
+  // JKR's contact, which needs no law pair, is a call.
   if (!kModels || c.cohesion == CohesionModel::kNone) {
     const NormalForce f = law.force(pair, overlap, overlap_rate, criterion_met);
     return {f.force, law.friction_load(pair, f, overlap), 0.0, f.bonded, false};
