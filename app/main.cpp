@@ -58,8 +58,7 @@ void print_quantity(const std::string& name, double value, const std::string& un
 /// The contact model of a material pair: damping ratio and restitution (each from the other by
 /// the normal law's relation), friction, rolling resistance and cohesion.
 void print_contact_model(const Case& c, const bondem::PairCoefficients& pair) {
-  const double restitution = bondem::with_normal_law(
-      c.normal_law, [&](const auto& law) { return law.restitution_for(pair.contact_damping); });
+  const double restitution = bondem::restitution_of(c.normal_law, pair.contact_damping);
   print_quantity("contact_damping_ratio", pair.contact_damping, "");
   print_quantity("contact_restitution", restitution, "");
   std::cout << "# restitution "

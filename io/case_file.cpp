@@ -351,16 +351,19 @@ Laser read_laser(const Reader& reader, const YAML::Node& node) {
   return laser;
 }
 
+/// Index of the material whose name is the value of @p name (at @p path).
+int material_named(const Reader& reader, const Case& c, const YAML::Node& name,
+                   const std::string& path) {
+  const std::string text = reader.text(name, path);
+  const auto found = std::find_if(c.materials.begin(), c.materials.end(),
+                                  [&](const Material& m) { return m.name == text; });
+  if (found == c.materials.end()) reader.fail(name, path, "no material named '" + text + "'");
+  return static_cast<int>(found - c.materials.begin());
+}
+
 int material_index(const Reader& reader, const Case& c, const YAML::Node& body,
                    const std::string& path) {
-  const YAML::Node material = reader.require(body, path, "material");
-  const std::string name = reader.text(material, path + ".material");
-  const auto found = std::find_if(c.materials.begin(), c.materials.end(),
-                                  [&](const Material& m) { return m.name == name; });
-  if (found == c.materials.end()) {
-    reader.fail(material, path + ".material", "no material named '" + name + "'");
-  }
-  return static_cast<int>(found - c.materials.begin());
+  return material_named(reader, c, reader.require(body, path, "material"), path + ".material");
 }
 
 Box read_box(const Reader& reader, const YAML::Node& node, const std::string& path) {
@@ -1111,24 +1114,14 @@ void read_interactions(const Reader& reader, const YAML::Node& root, Case& c) {
       reader.fail(names, path + ".materials", "expected a list of two material names");
     }
     Interaction interaction;
-    int* indices[2] = {&interaction.first_material, &interaction.second_material};
-    for (std::size_t m = 0; m < 2; ++m) {
-      const std::string name = reader.text(names[m], Reader::join(path + ".materials", m));
-      const auto found =
-          std::find_if(c.materials.begin(), c.materials.end(),
-                       [&](const Material& material) { return material.name == name; });
-      if (found == c.materials.end()) {
-        reader.fail(names[m], Reader::join(path + ".materials", m),
-                    "no material named '" + name + "'");
-      }
-      *indices[m] = static_cast<int>(found - c.materials.begin());
-    }
+    interaction.first_material =
+        material_named(reader, c, names[0], Reader::join(path + ".materials", 0));
+    interaction.second_material =
+        material_named(reader, c, names[1], Reader::join(path + ".materials", 1));
     for (const Interaction& before : c.interactions) {
-      const bool same = (before.first_material == interaction.first_material &&
-                         before.second_material == interaction.second_material) ||
-                        (before.first_material == interaction.second_material &&
-                         before.second_material == interaction.first_material);
-      if (same) reader.fail(names, path + ".materials", "this pair of materials is given twice");
+      if (before.joins(interaction.first_material, interaction.second_material)) {
+        reader.fail(names, path + ".materials", "this pair of materials is given twice");
+      }
     }
     interaction.model = c.contact;
     read_contact_model(reader, c, entry, path, false, interaction.model);

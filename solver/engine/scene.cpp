@@ -17,10 +17,7 @@ double sphere_mass(double radius, double density) {
 
 const ContactModel& Case::contact_model(int a, int b) const {
   for (const Interaction& entry : interactions) {
-    if ((entry.first_material == a && entry.second_material == b) ||
-        (entry.first_material == b && entry.second_material == a)) {
-      return entry.model;
-    }
+    if (entry.joins(a, b)) return entry.model;
   }
   return contact;
 }
@@ -34,12 +31,8 @@ PairCoefficients Case::pair_coefficients(int a, int b) const {
                                           m_b.poisson_ratio);
   const double strength =
       bond.input == AdhesionInput::kStiffness ? bond.stiffness : bond.equilibrium_overlap;
-  const double xi_con = model.restitution > 0.0
-                            ? with_normal_law(normal_law,
-                                              [&](const auto& law) {
-                                                return law.damping_ratio_for(model.restitution);
-                                              })
-                            : model.damping_ratio;
+  const double xi_con = model.restitution > 0.0 ? damping_ratio_of(normal_law, model.restitution)
+                                                : model.damping_ratio;
   PairCoefficients c =
       make_pair_coefficients(e_star, xi_con, bond.damping_ratio, bond.alpha, bond.input, strength);
   c.restitution = model.restitution;

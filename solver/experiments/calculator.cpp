@@ -91,9 +91,7 @@ PairReport compute_pair_report(const Case& description, int material_a, double r
       std::isinf(scales.oscillation_period)
           ? std::numeric_limits<double>::infinity()
           : damper_time_step(scales.oscillation_stiffness, m_star, scales.oscillation_damping);
-  report.restitution = with_normal_law(description.normal_law, [&](const auto& law) {
-    return law.restitution_for(coefficients.contact_damping);
-  });
+  report.restitution = restitution_of(description.normal_law, coefficients.contact_damping);
   report.recommended_time_step =
       recommended_time_step(report.contact_time, report.bond_period, report.rayleigh_time,
                             std::min(report.contact_damper_step, report.bond_damper_step));

@@ -38,4 +38,14 @@ decltype(auto) with_normal_law(const NormalLawSpec& spec, Visit&& visit) {
       spec);
 }
 
+/// Restitution of a contact with damping ratio @p xi under the normal law of @p spec.
+inline double restitution_of(const NormalLawSpec& spec, double xi) {
+  return with_normal_law(spec, [&](const auto& law) { return law.restitution_for(xi); });
+}
+
+/// Damping ratio whose restitution under the normal law of @p spec is @p restitution.
+inline double damping_ratio_of(const NormalLawSpec& spec, double restitution) {
+  return with_normal_law(spec, [&](const auto& law) { return law.damping_ratio_for(restitution); });
+}
+
 }  // namespace bondem

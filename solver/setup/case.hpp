@@ -74,6 +74,12 @@ struct Interaction {
   int first_material = 0;   ///< index into Case::materials
   int second_material = 0;  ///< index into Case::materials (may equal the first)
   ContactModel model;
+
+  /// Whether the entry is for the unordered pair of materials (a, b).
+  bool joins(int a, int b) const {
+    return (first_material == a && second_material == b) ||
+           (first_material == b && second_material == a);
+  }
 };
 
 /// Lumped heat transfer (`thermal:` block): m c_p dT/dt = sum of the heat flows into a particle.
