@@ -27,7 +27,8 @@ inline Scene lattice_scene(int side, int layers, bool friction) {
   d.max = Eigen::Vector3d(length, length, 2.0 * layers * spacing);
   d.periodic = {true, true, false};
   c.domain = d;
-  c.walls.push_back({Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 0, "floor"});
+  c.boundaries.push_back(
+      plane_boundary(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 0, "floor"));
   c.skin = 1e-4;
   return build_scene(c);
 }

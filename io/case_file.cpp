@@ -6,12 +6,14 @@
 #include <array>
 #include <charconv>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <map>
 #include <sstream>
 #include <variant>
 
+#include "io/stl_reader.hpp"
 #include "solver/analysis/packing.hpp"
 #include "solver/setup/insertion.hpp"
 #include "solver/setup/message_number.hpp"
@@ -400,11 +402,22 @@ Domain read_domain(const Reader& reader, const YAML::Node& node, const std::stri
   return d;
 }
 
-/// A tool's shape and the point its motion carries, as one reader entry reads them.
+/// A boundary's shape and the point its motion carries, as one reader entry reads them.
 struct PlacedShape {
-  ToolShapes shape;
+  BoundaryShapes shape;
   Eigen::Vector3d center;
 };
+
+/// `plane`: {point, normal}.
+PlacedShape read_plane(const Reader& reader, const YAML::Node& node, const std::string& path) {
+  const Eigen::Vector3d point =
+      reader.vector3(reader.require(node, path, "point"), path + ".point");
+  const YAML::Node normal_node = reader.require(node, path, "normal");
+  Eigen::Vector3d normal = reader.vector3(normal_node, path + ".normal");
+  if (!(normal.norm() > 0.0)) reader.fail(normal_node, path + ".normal", "must not be zero");
+  normal.normalize();
+  return {PlaneShape{normal}, point};
+}
 
 /// `blade`: a box {min, max}, carried by its centre.
 PlacedShape read_blade(const Reader& reader, const YAML::Node& node, const std::string& path) {
@@ -415,7 +428,8 @@ PlacedShape read_blade(const Reader& reader, const YAML::Node& node, const std::
   return {BoxShape{0.5 * (hi - lo)}, 0.5 * (lo + hi)};
 }
 
-/// `roller`: a cylinder through `point` along `axis` (default y), `radius`, optional `spin`.
+/// `roller`: a cylinder through `point` along `axis` (default y) of `radius`; its `spin` is read
+/// with the motion.
 PlacedShape read_roller(const Reader& reader, const YAML::Node& node, const std::string& path) {
   CylinderShape roller;
   const Eigen::Vector3d point =
@@ -426,7 +440,6 @@ PlacedShape read_roller(const Reader& reader, const YAML::Node& node, const std:
     roller.axis.normalize();
   }
   roller.radius = reader.positive(reader.require(node, path, "radius"), path + ".radius");
-  if (const YAML::Node spin = node["spin"]) roller.spin = reader.number(spin, path + ".spin");
   return {roller, point};
 }
 
@@ -438,94 +451,187 @@ PlacedShape read_sphere(const Reader& reader, const YAML::Node& node, const std:
   return {SphereShape{radius}, center};
 }
 
-/// One entry per tool shape: its case-file type, its own keys (besides type, material, motion
-/// and name) and its reader.
-struct ToolReader {
+/// `mesh`: an STL `file` (relative to the case file), each vertex x placed at scale * x + offset;
+/// the reference point `center` defaults to the offset (the file's origin).
+PlacedShape read_mesh(const Reader& reader, const YAML::Node& node, const std::string& path) {
+  const YAML::Node file_node = reader.require(node, path, "file");
+  const std::filesystem::path file = reader.text(file_node, path + ".file");
+  const std::filesystem::path resolved =
+      file.is_absolute() ? file : std::filesystem::path(reader.source()).parent_path() / file;
+  const double scale = node["scale"] ? reader.positive(node["scale"], path + ".scale") : 1.0;
+  const Eigen::Vector3d offset =
+      node["offset"] ? reader.vector3(node["offset"], path + ".offset") : Eigen::Vector3d::Zero();
+  const Eigen::Vector3d center =
+      node["center"] ? reader.vector3(node["center"], path + ".center") : offset;
+  StlMesh stl;
+  try {
+    stl = read_stl(resolved, scale, offset);
+  } catch (const StlError& error) {
+    reader.fail(file_node, path + ".file", error.what());
+  }
+  // Vertices relative to the reference point: the boundary frame.
+  for (Eigen::Vector3d& v : stl.mesh.vertices) v -= center;
+  // The grid is rebuilt for the particles' size by build_scene; here cells of the mesh's own
+  // scale serve the reader's overlap checks.
+  double longest = 0.0;
+  for (const auto& t : stl.mesh.triangles) {
+    for (int k = 0; k < 3; ++k) {
+      longest = std::max(longest, (stl.mesh.vertices[static_cast<std::size_t>(t[k])] -
+                                   stl.mesh.vertices[static_cast<std::size_t>(t[(k + 1) % 3])])
+                                      .norm());
+    }
+  }
+  return {MeshShape{make_mesh_surface(std::move(stl.mesh), longest, file.string())}, center};
+}
+
+/// One entry per boundary shape: its case-file type, its own keys (besides type, material,
+/// motion, name and temperature) and its reader.
+struct ShapeReader {
   std::string type;
   std::vector<std::string> keys;
   PlacedShape (*read)(const Reader&, const YAML::Node&, const std::string&);
 };
 
-const std::vector<ToolReader>& tool_readers() {
-  static const std::vector<ToolReader> readers{
+const std::vector<ShapeReader>& shape_readers() {
+  static const std::vector<ShapeReader> readers{
+      {"plane", {"point", "normal"}, read_plane},
       {"blade", {"min", "max"}, read_blade},
       {"roller", {"point", "axis", "radius", "spin"}, read_roller},
       {"sphere", {"center", "radius"}, read_sphere},
+      {"mesh", {"file", "scale", "offset", "center"}, read_mesh},
   };
   return readers;
 }
 
-/// The reader entry of tool type @p type, or nullptr when it is not a tool.
-const ToolReader* find_tool_reader(const std::string& type) {
-  for (const ToolReader& entry : tool_readers()) {
+/// The reader entry of boundary type @p type, or nullptr when there is none.
+const ShapeReader* find_shape_reader(const std::string& type) {
+  for (const ShapeReader& entry : shape_readers()) {
     if (entry.type == type) return &entry;
   }
   return nullptr;
 }
 
-/// A moving tool: its shape's keys (tool_readers()) and `material`, `motion`, `name`.
-Body read_tool(const Reader& reader, const Case& c, const YAML::Node& node, const std::string& path,
-               const ToolReader& kind) {
-  std::vector<std::string> keys{"type"};
-  keys.insert(keys.end(), kind.keys.begin(), kind.keys.end());
-  keys.insert(keys.end(), {"material", "motion", "name"});
-  reader.check_keys(node, path, keys);
-  Body tool;
-  PlacedShape placed = kind.read(reader, node, path);
-  tool.shape = std::move(placed.shape);
-  tool.center = placed.center;
-  tool.material = material_index(reader, c, node, path);
-  tool.name = node["name"] ? reader.text(node["name"], path + ".name") : path;
-  if (const YAML::Node motion = node["motion"]) {
-    if (!motion.IsSequence()) reader.fail(motion, path + ".motion", "expected a list of keys");
-    for (std::size_t k = 0; k < motion.size(); ++k) {
-      const std::string key_path = Reader::join(path + ".motion", k);
-      reader.expect_map(motion[k], key_path);
-      reader.check_keys(motion[k], key_path, {"time", "velocity"});
-      MotionKey key;
-      const YAML::Node time = reader.require(motion[k], key_path, "time");
-      key.time = reader.non_negative(time, key_path + ".time");
-      if (!tool.motion.empty() && key.time <= tool.motion.back().time) {
-        reader.fail(time, key_path + ".time", "motion keys must be in increasing time");
+/// The keys of a motion table at @p node (a list).
+std::vector<MotionKey> read_motion_keys(const Reader& reader, const YAML::Node& node,
+                                        const std::string& path) {
+  if (!node.IsSequence()) reader.fail(node, path, "expected a list of keys");
+  std::vector<MotionKey> keys;
+  for (std::size_t k = 0; k < node.size(); ++k) {
+    const std::string key_path = Reader::join(path, k);
+    reader.expect_map(node[k], key_path);
+    reader.check_keys(node[k], key_path, {"time", "velocity", "angular_velocity"});
+    MotionKey key;
+    const YAML::Node time = reader.require(node[k], key_path, "time");
+    key.time = reader.non_negative(time, key_path + ".time");
+    if (!keys.empty() && key.time <= keys.back().time) {
+      reader.fail(time, key_path + ".time", "motion keys must be in increasing time");
+    }
+    if (const YAML::Node velocity = node[k]["velocity"]) {
+      key.velocity = reader.velocity(velocity, key_path + ".velocity");
+    }
+    if (const YAML::Node rate = node[k]["angular_velocity"]) {
+      key.angular_velocity = reader.number(rate, key_path + ".angular_velocity");
+    }
+    keys.push_back(key);
+  }
+  return keys;
+}
+
+/// `motion`: a list of keys (a step profile), or a mapping {keys, interpolation: constant |
+/// linear, axis, spin}; a roller's `spin` key is a constant spin about its own axis. The rotation
+/// axis defaults to a roller's axis and is required for other shapes that turn.
+Motion read_motion(const Reader& reader, const YAML::Node& node, const std::string& path,
+                   const BoundaryShapes& shape) {
+  Motion motion;
+  const auto* cylinder = std::get_if<CylinderShape>(&shape);
+  if (cylinder != nullptr) motion.axis = cylinder->axis;
+  YAML::Node axis_node;
+  if (const YAML::Node spin = node["spin"]) motion.spin = reader.number(spin, path + ".spin");
+  const std::string motion_path = path + ".motion";
+  if (const YAML::Node m = node["motion"]) {
+    if (m.IsSequence()) {
+      motion.keys = read_motion_keys(reader, m, motion_path);
+    } else {
+      reader.expect_map(m, motion_path);
+      reader.check_keys(m, motion_path, {"keys", "interpolation", "axis", "spin"});
+      if (const YAML::Node keys = m["keys"]) {
+        motion.keys = read_motion_keys(reader, keys, motion_path + ".keys");
       }
-      key.velocity =
-          reader.velocity(reader.require(motion[k], key_path, "velocity"), key_path + ".velocity");
-      tool.motion.push_back(key);
+      if (const YAML::Node interpolation = m["interpolation"]) {
+        const std::string kind = reader.text(interpolation, motion_path + ".interpolation");
+        if (kind == "linear") {
+          motion.interpolation = MotionInterpolation::kLinear;
+        } else if (kind != "constant") {
+          reader.fail(interpolation, motion_path + ".interpolation",
+                      "unknown interpolation '" + kind + "' (constant or linear)");
+        }
+      }
+      if ((axis_node = m["axis"])) {
+        motion.axis = reader.vector3(axis_node, motion_path + ".axis");
+        if (!(motion.axis.norm() > 0.0)) {
+          reader.fail(axis_node, motion_path + ".axis", "must not be zero");
+        }
+        motion.axis.normalize();
+      }
+      if (const YAML::Node spin = m["spin"]) {
+        motion.spin += reader.number(spin, motion_path + ".spin");
+      }
     }
   }
-  return tool;
+  if (motion.rotates()) {
+    const YAML::Node where = node["motion"] ? node["motion"] : node["spin"];
+    if (std::holds_alternative<PlaneShape>(shape)) {
+      reader.fail(where, motion_path, "a plane cannot rotate (it is unbounded)");
+    }
+    if (cylinder != nullptr && motion.axis.cross(cylinder->axis).norm() > 1e-12) {
+      reader.fail(axis_node ? axis_node : where, motion_path + ".axis",
+                  "a roller can only rotate about its own axis");
+    }
+    if (cylinder == nullptr && !axis_node) {
+      reader.fail(where, motion_path,
+                  "a rotation needs an axis: give the motion as {keys: [...], axis: [x, y, z]}");
+    }
+  }
+  return motion;
+}
+
+/// A boundary: its shape's keys (shape_readers()) and `material`, `motion`, `name`,
+/// `temperature`.
+Boundary read_boundary(const Reader& reader, const Case& c, const YAML::Node& node,
+                       const std::string& path, const ShapeReader& kind) {
+  std::vector<std::string> keys{"type"};
+  keys.insert(keys.end(), kind.keys.begin(), kind.keys.end());
+  keys.insert(keys.end(), {"material", "motion", "name", "temperature"});
+  reader.check_keys(node, path, keys);
+  Boundary boundary;
+  PlacedShape placed = kind.read(reader, node, path);
+  boundary.shape = std::move(placed.shape);
+  boundary.center = placed.center;
+  boundary.material = material_index(reader, c, node, path);
+  boundary.name = node["name"] ? reader.text(node["name"], path + ".name") : path;
+  boundary.temperature = wall_temperature(reader, c, node, path);
+  boundary.motion = read_motion(reader, node, path, boundary.shape);
+  return boundary;
 }
 
 void read_walls(const Reader& reader, Case& c, const YAML::Node& walls) {
   if (!walls.IsSequence()) reader.fail(walls, "walls", "expected a list of walls");
   for (std::size_t k = 0; k < walls.size(); ++k) {
-    const YAML::Node body = walls[k];
+    const YAML::Node node = walls[k];
     const std::string path = Reader::join("walls", k);
-    reader.expect_map(body, path);
-    const YAML::Node type = reader.require(body, path, "type");
+    reader.expect_map(node, path);
+    const YAML::Node type = reader.require(node, path, "type");
     const std::string kind = reader.text(type, path + ".type");
-    if (kind == "plane") {
-      reader.check_keys(body, path, {"type", "point", "normal", "material", "name", "temperature"});
-      PlaneWall wall;
-      wall.point = reader.vector3(reader.require(body, path, "point"), path + ".point");
-      const YAML::Node normal = reader.require(body, path, "normal");
-      wall.normal = reader.vector3(normal, path + ".normal");
-      if (!(wall.normal.norm() > 0.0)) reader.fail(normal, path + ".normal", "must not be zero");
-      wall.normal.normalize();
-      wall.material = material_index(reader, c, body, path);
-      wall.name = body["name"] ? reader.text(body["name"], path + ".name") : path;
-      wall.temperature = wall_temperature(reader, c, body, path);
-      c.walls.push_back(wall);
-    } else if (kind == "box") {
-      reader.check_keys(body, path,
-                        {"type", "min", "max", "material", "open", "name", "temperature"});
-      const Eigen::Vector3d lo = reader.vector3(reader.require(body, path, "min"), path + ".min");
-      const Eigen::Vector3d hi = reader.vector3(reader.require(body, path, "max"), path + ".max");
+    if (kind == "box") {
+      reader.check_keys(
+          node, path, {"type", "min", "max", "material", "open", "name", "temperature", "motion"});
+      const Eigen::Vector3d lo = reader.vector3(reader.require(node, path, "min"), path + ".min");
+      const Eigen::Vector3d hi = reader.vector3(reader.require(node, path, "max"), path + ".max");
       if (!(hi.array() > lo.array()).all()) {
-        reader.fail(body["max"], path + ".max", "must exceed min on every axis");
+        reader.fail(node["max"], path + ".max", "must exceed min on every axis");
       }
       bool open[6] = {false, false, false, false, false, false};
-      if (const YAML::Node faces = body["open"]) {
+      if (const YAML::Node faces = node["open"]) {
         if (!faces.IsSequence()) reader.fail(faces, path + ".open", "expected a list of faces");
         for (std::size_t f = 0; f < faces.size(); ++f) {
           const std::string face = reader.text(faces[f], Reader::join(path + ".open", f));
@@ -539,20 +645,24 @@ void read_walls(const Reader& reader, Case& c, const YAML::Node& walls) {
           open[hit - kBoxFaceNames] = true;
         }
       }
-      const std::string name = body["name"] ? reader.text(body["name"], path + ".name") : path;
-      const double temperature = wall_temperature(reader, c, body, path);
-      for (PlaneWall& wall : box_walls(lo, hi, material_index(reader, c, body, path), open, name)) {
-        wall.temperature = temperature;
-        c.walls.push_back(wall);
+      const std::string name = node["name"] ? reader.text(node["name"], path + ".name") : path;
+      const double temperature = wall_temperature(reader, c, node, path);
+      // The faces move together; each is a plane, which may only translate.
+      const Motion motion = read_motion(reader, node, path, PlaneShape{});
+      for (Boundary& face :
+           box_container(lo, hi, material_index(reader, c, node, path), open, name)) {
+        face.temperature = temperature;
+        face.motion = motion;
+        c.boundaries.push_back(std::move(face));
       }
-    } else if (const ToolReader* tool = find_tool_reader(kind)) {
-      c.bodies.push_back(read_tool(reader, c, body, path, *tool));
+    } else if (const ShapeReader* shape = find_shape_reader(kind)) {
+      c.boundaries.push_back(read_boundary(reader, c, node, path, *shape));
     } else {
-      std::string message = "unknown wall type '" + kind + "' (plane, box";
-      const std::vector<ToolReader>& tools = tool_readers();
-      for (std::size_t t = 0; t < tools.size(); ++t) {
-        message += t + 1 == tools.size() ? " or " : ", ";
-        message += tools[t].type;
+      std::string message = "unknown wall type '" + kind + "' (box";
+      const std::vector<ShapeReader>& shapes = shape_readers();
+      for (std::size_t t = 0; t < shapes.size(); ++t) {
+        message += t + 1 == shapes.size() ? " or " : ", ";
+        message += shapes[t].type;
       }
       reader.fail(type, path + ".type", message + ")");
     }
@@ -652,14 +762,11 @@ void check_inside(const Reader& reader, const Case& c, const ParticleSpec& p,
       }
     }
   }
-  for (const PlaneWall& wall : c.walls) {
-    if (distance_to(wall, p.position.x(), p.position.y(), p.position.z()) < p.radius) {
-      reader.fail(node, path, "overlaps wall '" + wall.name + "'");
-    }
-  }
-  for (const Body& tool : c.bodies) {
-    if (nearest_surface(tool, p.position).gap < p.radius) {
-      reader.fail(node, path, "overlaps '" + tool.name + "'");
+  for (const Boundary& boundary : c.boundaries) {
+    if (!surely_apart(boundary, p.position, p.radius) &&
+        nearest_surface(boundary, p.position).gap < p.radius) {
+      reader.fail(node, path,
+                  (is_plane(boundary) ? "overlaps wall '" : "overlaps '") + boundary.name + "'");
     }
   }
 }

@@ -209,7 +209,7 @@ void write_canonical_particles(const Case& c, CanonicalText& t) {
   }
 }
 
-/// The domain, the walls and the tools with their shapes and motions.
+/// The domain and the boundaries with their shapes and motions.
 void write_canonical_boundaries(const Case& c, CanonicalText& t) {
   if (c.domain) {
     t.add("case.domain.min", c.domain->min);
@@ -218,20 +218,11 @@ void write_canonical_boundaries(const Case& c, CanonicalText& t) {
       t.add("case.domain.periodic." + std::to_string(a), c.domain->periodic[a]);
     }
   }
-  for (std::size_t k = 0; k < c.walls.size(); ++k) {
-    const PlaneWall& w = c.walls[k];
-    const std::string key = "case.walls." + std::to_string(k);
-    t.add(key + ".name", std::string_view(w.name));
-    t.add(key + ".point", w.point);
-    t.add(key + ".normal", w.normal);
-    t.add(key + ".material", w.material);
-    t.add(key + ".temperature", w.temperature);
-  }
-  for (std::size_t k = 0; k < c.bodies.size(); ++k) {
-    const Body& b = c.bodies[k];
-    const std::string key = "case.bodies." + std::to_string(k);
+  for (std::size_t k = 0; k < c.boundaries.size(); ++k) {
+    const Boundary& b = c.boundaries[k];
+    const std::string key = "case.boundaries." + std::to_string(k);
     t.add(key + ".name", std::string_view(b.name));
-    // The shape by its place in ToolShapes and every parameter it declares.
+    // The shape by its place in BoundaryShapes and every parameter it declares.
     t.add(key + ".shape", static_cast<int>(b.shape.index()));
     std::visit(
         [&](const auto& shape) {
@@ -240,11 +231,19 @@ void write_canonical_boundaries(const Case& c, CanonicalText& t) {
         },
         b.shape);
     t.add(key + ".material", b.material);
+    t.add(key + ".temperature", b.temperature);
     t.add(key + ".center", b.center);
+    t.add(key + ".angle", b.angle);
     t.add(key + ".velocity", b.velocity);
-    for (std::size_t m = 0; m < b.motion.size(); ++m) {
-      t.add(key + ".motion." + std::to_string(m) + ".time", b.motion[m].time);
-      t.add(key + ".motion." + std::to_string(m) + ".velocity", b.motion[m].velocity);
+    t.add(key + ".angular_velocity", b.angular_velocity);
+    t.add(key + ".motion.interpolation", static_cast<int>(b.motion.interpolation));
+    t.add(key + ".motion.axis", b.motion.axis);
+    t.add(key + ".motion.spin", b.motion.spin);
+    for (std::size_t m = 0; m < b.motion.keys.size(); ++m) {
+      const std::string key_m = key + ".motion." + std::to_string(m);
+      t.add(key_m + ".time", b.motion.keys[m].time);
+      t.add(key_m + ".velocity", b.motion.keys[m].velocity);
+      t.add(key_m + ".angular_velocity", b.motion.keys[m].angular_velocity);
     }
   }
 }
@@ -351,7 +350,7 @@ void write_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
     payload.put(slip.bonded);
     payload.put(slip.joined);
   }
-  payload.put(s.bodies);
+  payload.put(s.boundaries);
   payload.put(s.bonds_formed);
   payload.put(s.bonds_broken);
   payload.put(s.laser_energy);
@@ -363,6 +362,8 @@ void write_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
   if (p.contact_history) put_section(CheckpointSection::kContactHistory);
   payload.put(static_cast<std::uint8_t>(p.displacement_tracked ? 1 : 0));
   if (p.displacement_tracked) put_section(CheckpointSection::kDisplacement);
+  payload.put(static_cast<std::uint8_t>(p.mesh_contacts ? 1 : 0));
+  if (p.mesh_contacts) put_section(CheckpointSection::kMeshHistory);
   payload.put(checkpoint.history);
 
   AtomicFile file(path, std::ios::binary);
@@ -478,10 +479,10 @@ Checkpoint read_checkpoint(const std::string& path) {
     slip.bonded = r.get<std::uint8_t>();
     slip.joined = r.get<std::uint8_t>();
   }
-  const auto body_values = r.get<std::uint64_t>();
-  r.check_room(body_values, sizeof(double));
-  s.bodies.resize(body_values);
-  r.get_raw(s.bodies.data(), body_values * sizeof(double));
+  const auto boundary_values = r.get<std::uint64_t>();
+  r.check_room(boundary_values, sizeof(double));
+  s.boundaries.resize(boundary_values);
+  r.get_raw(s.boundaries.data(), boundary_values * sizeof(double));
   s.bonds_formed = r.get<std::int64_t>();
   s.bonds_broken = r.get<std::int64_t>();
   s.laser_energy = r.get<double>();
@@ -491,6 +492,8 @@ Checkpoint read_checkpoint(const std::string& path) {
   if (p.contact_history) get_section(CheckpointSection::kContactHistory);
   p.displacement_tracked = r.get<std::uint8_t>() != 0;
   if (p.displacement_tracked) get_section(CheckpointSection::kDisplacement);
+  p.mesh_contacts = r.get<std::uint8_t>() != 0;
+  if (p.mesh_contacts) get_section(CheckpointSection::kMeshHistory);
   c.history = r.get_text();
   if (!r.at_end()) r.fail("trailing bytes");
   // A field the table does not checkpoint restarts from zero, sized like the others, so that it

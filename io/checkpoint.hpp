@@ -21,22 +21,31 @@ class CheckpointError : public std::runtime_error {
 };
 
 /// Format version written into every checkpoint; readers refuse any other.
-inline constexpr std::uint32_t kCheckpointVersion = 5;
+inline constexpr std::uint32_t kCheckpointVersion = 6;
 
 /// Where a checkpointed particle field sits in the file: per-particle arrays right after the
 /// particle count, per-wall arrays after the wall count, thermal arrays after the thermal flag,
-/// contact-history arrays after their flag, displacements after theirs.
-enum class CheckpointSection { kParticle, kWall, kThermal, kContactHistory, kDisplacement };
+/// contact-history arrays after their flag, displacements after theirs, mesh contact normals after
+/// theirs.
+enum class CheckpointSection {
+  kParticle,
+  kWall,
+  kThermal,
+  kContactHistory,
+  kDisplacement,
+  kMeshHistory
+};
 
 /// The section of @p field.
 constexpr CheckpointSection checkpoint_section(const ParticleField& field) {
   if (has(field, kThermal)) return CheckpointSection::kThermal;
   if (has(field, kContactHistory)) return CheckpointSection::kContactHistory;
   if (has(field, kDisplacementField)) return CheckpointSection::kDisplacement;
+  if (has(field, kMeshHistory)) return CheckpointSection::kMeshHistory;
   return has(field, kPerWall) ? CheckpointSection::kWall : CheckpointSection::kParticle;
 }
 
-/// The particle fields of a version-5 checkpoint in file order. Not a list the code reads: a
+/// The particle fields of a version-6 checkpoint in file order. Not a list the code reads: a
 /// guard. Checkpointing another field (or dropping or moving one) in kParticleFields fails to
 /// compile until this list and kCheckpointVersion change with it, so that older checkpoints are
 /// refused by their version instead of misread.
@@ -67,14 +76,16 @@ inline constexpr std::string_view kCheckpointParticleLayout[] = {"id",
                                                                  "wall_contact",
                                                                  "dx",
                                                                  "dy",
-                                                                 "dz"};
+                                                                 "dz",
+                                                                 "wall_normal"};
 
 /// Whether the checkpointed rows of kParticleFields, in file order, are kCheckpointParticleLayout.
 constexpr bool checkpoint_layout_unchanged() {
   std::size_t k = 0;
   for (const CheckpointSection section :
        {CheckpointSection::kParticle, CheckpointSection::kWall, CheckpointSection::kThermal,
-        CheckpointSection::kContactHistory, CheckpointSection::kDisplacement}) {
+        CheckpointSection::kContactHistory, CheckpointSection::kDisplacement,
+        CheckpointSection::kMeshHistory}) {
     for (const ParticleField& field : kParticleFields) {
       if (!has(field, kCheckpointed) || checkpoint_section(field) != section) continue;
       if (k == std::size(kCheckpointParticleLayout) || kCheckpointParticleLayout[k] != field.name) {

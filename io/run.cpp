@@ -55,15 +55,19 @@ std::string checkpoint_misfit(const Checkpoint& restored, const Scene& scene,
     return std::to_string(p.size()) + " particles, the case has " + std::to_string(expected.size());
   }
   if (p.walls != expected.walls) {
-    return std::to_string(p.walls) + " walls and tools, the case has " +
+    return std::to_string(p.walls) + " boundary contact slots, the case has " +
            std::to_string(expected.walls);
   }
   if (p.thermal() != expected.thermal()) {
     return p.thermal() ? "temperatures, the case is not thermal" : "no temperatures";
   }
-  if (restored.stepper.bodies.size() != 6 * scene.bodies.size()) {
-    return "the state of " + std::to_string(restored.stepper.bodies.size() / 6) +
-           " tools, the case has " + std::to_string(scene.bodies.size());
+  if (restored.stepper.boundaries.size() != kBoundaryStateValues * scene.boundaries.size()) {
+    return "the state of " +
+           std::to_string(restored.stepper.boundaries.size() / kBoundaryStateValues) +
+           " boundaries, the case has " + std::to_string(scene.boundaries.size());
+  }
+  if (p.mesh_contacts != expected.mesh_contacts) {
+    return p.mesh_contacts ? "mesh contact history, the case has no mesh" : "no mesh contacts";
   }
   for (const std::int32_t m : p.material) {
     if (m < 0 || static_cast<std::size_t>(m) >= materials) {

@@ -68,7 +68,7 @@ void VtkFrames::resume(const Scene& scene, std::int64_t checkpoint_step, double 
         const std::int64_t step = std::llround(time / time_step);
         return step <= checkpoint_step && step % every_ == 0;
       },
-      scene.walls, scene.domain);
+      scene.boundaries, scene.domain);
 }
 
 void VtkFrames::start(const Simulation& simulation) {
@@ -111,9 +111,8 @@ void VtkFrames::write(const Scene& scene, const Stepper& stepper) {
     bond_count_[j] += bonded ? 1.0 : 0.0;
   });
   // The particles' own fields come from their table; only the per-frame derived arrays are passed.
-  writer_.write_frame(stepper.time(), p, contacts_, scene.walls, scene.domain,
-                      {{"coordination", &coordination_}, {"bond_count", &bond_count_}}, {},
-                      scene.bodies);
+  writer_.write_frame(stepper.time(), p, contacts_, scene.boundaries, scene.domain,
+                      {{"coordination", &coordination_}, {"bond_count", &bond_count_}});
 }
 
 CheckpointFile::CheckpointFile(std::string path, std::uint64_t fingerprint, std::int64_t every,

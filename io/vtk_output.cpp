@@ -385,13 +385,14 @@ vtkSmartPointer<vtkPolyData> wall_data(const std::vector<PlaneWall>& walls, cons
 
 /// Moving tools as the outlines their shapes give (a box as its six faces, a cylinder as a
 /// 32-sided prism spanning the domain along its axis, ...). Cell arrays: tool index, material.
-vtkSmartPointer<vtkPolyData> tool_data(const std::vector<Body>& bodies, const Domain& domain) {
+vtkSmartPointer<vtkPolyData> tool_data(const std::vector<const Boundary*>& bodies,
+                                       const Domain& domain) {
   vtkNew<vtkPoints> points;
   points->SetDataTypeToDouble();
   vtkNew<vtkCellArray> polys;
   std::vector<int> tool_of_cell;
   for (std::size_t b = 0; b < bodies.size(); ++b) {
-    const Outline shape = outline(bodies[b], domain);
+    const Outline shape = outline(*bodies[b], domain);
     const vtkIdType first = points->GetNumberOfPoints();
     for (const Eigen::Vector3d& point : shape.points) points->InsertNextPoint(point.data());
     for (const std::vector<int>& polygon : shape.polygons) {
@@ -410,7 +411,7 @@ vtkSmartPointer<vtkPolyData> tool_data(const std::vector<Body>& bodies, const Do
       "tool_index", tool_of_cell.size(), [&](std::size_t c) { return tool_of_cell[c]; }));
   arrays->AddArray(integer_array<vtkTypeInt32Array>(
       "material", tool_of_cell.size(),
-      [&](std::size_t c) { return bodies[static_cast<std::size_t>(tool_of_cell[c])].material; }));
+      [&](std::size_t c) { return bodies[static_cast<std::size_t>(tool_of_cell[c])]->material; }));
   return data;
 }
 
@@ -545,8 +546,8 @@ void VtkSeriesWriter::set_wall_extent(double side) {
 
 bool VtkSeriesWriter::WallGeometry::same_as(const std::vector<PlaneWall>& other_walls,
                                             const Domain& other_domain, double other_extent) const {
-  if (extent != other_extent || domain.min != other_domain.min || domain.max != other_domain.max ||
-      walls.size() != other_walls.size()) {
+  if (moving || extent != other_extent || domain.min != other_domain.min ||
+      domain.max != other_domain.max || walls.size() != other_walls.size()) {
     return false;
   }
   for (std::size_t w = 0; w < walls.size(); ++w) {
@@ -560,10 +561,20 @@ bool VtkSeriesWriter::WallGeometry::same_as(const std::vector<PlaneWall>& other_
 
 void VtkSeriesWriter::write_frame(double time, const Particles& particles,
                                   const std::vector<ContactRecord>& contacts,
-                                  const std::vector<PlaneWall>& walls, const Domain& domain,
+                                  const std::vector<Boundary>& boundaries, const Domain& domain,
                                   const std::vector<ScalarField>& scalars,
-                                  const std::vector<VectorField>& vectors,
-                                  const std::vector<Body>& bodies) {
+                                  const std::vector<VectorField>& vectors) {
+  std::vector<PlaneWall> walls;
+  std::vector<const Boundary*> bodies;
+  bool moving = false;
+  for (const Boundary& boundary : boundaries) {
+    if (is_plane(boundary)) {
+      walls.push_back(plane_of(boundary));
+      moving = moving || boundary.motion.moves();
+    } else {
+      bodies.push_back(&boundary);
+    }
+  }
   if (!std::isfinite(time)) throw std::invalid_argument("VTK output: time is not finite");
   if (!times_.empty() && !(time > times_.back())) {
     throw std::invalid_argument("VTK output: frame time " + format_time(time) +
@@ -593,7 +604,7 @@ void VtkSeriesWriter::write_frame(double time, const Particles& particles,
   } else {
     wall_file = frame_file("walls", frame);
     write_vtp(wall_data(walls, domain, side), (dir / wall_file).string());
-    last_walls_ = WallGeometry{walls, domain, wall_extent_};
+    last_walls_ = WallGeometry{walls, domain, wall_extent_, moving};
   }
 
   times_.push_back(time);
@@ -610,7 +621,14 @@ void VtkSeriesWriter::write_frame(double time, const Particles& particles,
 }
 
 void VtkSeriesWriter::resume(const std::function<bool(double)>& keep_frame,
-                             const std::vector<PlaneWall>& walls, const Domain& domain) {
+                             const std::vector<Boundary>& boundaries, const Domain& domain) {
+  std::vector<PlaneWall> walls;
+  bool moving = false;
+  for (const Boundary& boundary : boundaries) {
+    if (!is_plane(boundary)) continue;
+    walls.push_back(plane_of(boundary));
+    moving = moving || boundary.motion.moves();
+  }
   times_.clear();
   wall_files_.clear();
   last_walls_.reset();
@@ -651,7 +669,7 @@ void VtkSeriesWriter::resume(const std::function<bool(double)>& keep_frame,
     tools_ = false;
     return;
   }
-  last_walls_ = WallGeometry{walls, domain, wall_extent_};
+  last_walls_ = WallGeometry{walls, domain, wall_extent_, moving};
   write_collections();
 }
 

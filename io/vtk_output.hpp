@@ -20,9 +20,8 @@
 #include <string>
 #include <vector>
 
-#include "geometry/bodies.hpp"
+#include "geometry/boundary.hpp"
 #include "geometry/domain.hpp"
-#include "geometry/walls.hpp"
 #include "solver/engine/particles.hpp"
 
 namespace bondem {
@@ -85,26 +84,31 @@ class VtkSeriesWriter {
   ///   once, at its table place; any other repeated name is refused.
   /// contacts: one line per record, two points of its own each; cell arrays "overlap",
   ///   "normal_force", "bonded" (UInt8), "id_i", "id_j" (Int64).
-  /// walls: one polygon per PlaneWall, a square centred at the projection of the domain centre
-  ///   onto the plane, clipped to the domain box (unclipped if the plane misses the box); box
-  ///   faces come out as exactly the domain's faces. Cell arrays "wall_index", "material" (Int32).
+  /// walls: one polygon per plane boundary at its current position, a square centred at the
+  ///   projection of the domain centre onto the plane, clipped to the domain box (unclipped if the
+  ///   plane misses the box); box faces come out as exactly the domain's faces. Cell arrays
+  ///   "wall_index" (the plane's place among the planes), "material" (Int32). Written again only
+  ///   when the planes differ from the last file's, and every frame while a plane moves.
+  /// tools: every other boundary as the outline its shape gives at its current pose (a mesh as
+  ///   its triangles), with cell arrays "tool_index" (place among the non-plane boundaries),
+  ///   "material".
   ///
   /// Throws std::invalid_argument on bad input (before touching any file) and std::runtime_error
   /// naming the file on a write failure; the frame is then not listed and no temporary remains.
   void write_frame(double time, const Particles& particles,
-                   const std::vector<ContactRecord>& contacts, const std::vector<PlaneWall>& walls,
-                   const Domain& domain, const std::vector<ScalarField>& scalars = {},
-                   const std::vector<VectorField>& vectors = {},
-                   const std::vector<Body>& bodies = {});
+                   const std::vector<ContactRecord>& contacts,
+                   const std::vector<Boundary>& boundaries, const Domain& domain,
+                   const std::vector<ScalarField>& scalars = {},
+                   const std::vector<VectorField>& vectors = {});
 
   /// Continue the series a stopped run left in this directory as if it had never stopped: keep
   /// its leading frames (read from walls.pvd) while @p keep_frame(time) holds, remove the files of
   /// every later frame, rewrite the collections and number the next frame after the kept ones.
-  /// @p walls and @p domain are the geometry the newest kept wall file shows (plane walls do not
-  /// move during a run), so the next frame reuses that file as an uninterrupted series would.
-  /// No series: nothing kept.
-  void resume(const std::function<bool(double)>& keep_frame, const std::vector<PlaneWall>& walls,
-              const Domain& domain);
+  /// @p boundaries and @p domain are the geometry the newest kept wall file shows (static planes
+  /// do not move; moving ones are drawn every frame), so the next frame reuses that file as an
+  /// uninterrupted series would. No series: nothing kept.
+  void resume(const std::function<bool(double)>& keep_frame,
+              const std::vector<Boundary>& boundaries, const Domain& domain);
 
   /// Number of frames written.
   std::size_t frames() const { return times_.size(); }
@@ -117,6 +121,7 @@ class VtkSeriesWriter {
     std::vector<PlaneWall> walls;
     Domain domain;
     double extent = 0.0;
+    bool moving = false;  ///< some plane moves: never reused
     bool same_as(const std::vector<PlaneWall>& other_walls, const Domain& other_domain,
                  double other_extent) const;
   };

@@ -254,11 +254,11 @@ TEST(CaseFile, ThermalCaseReadsEveryField) {
   EXPECT_EQ(c.laser->path[1].end, Eigen::Vector2d(0.0, 0.002));
   EXPECT_DOUBLE_EQ(c.laser->path[1].speed, 0.25);
 
-  ASSERT_EQ(c.walls.size(), 1u + 4u);  // the plane and the box without its z faces
-  EXPECT_EQ(c.walls[0].name, "plate");
-  EXPECT_DOUBLE_EQ(c.walls[0].temperature, 0.0);  // no temperature: adiabatic
-  for (std::size_t k = 1; k < c.walls.size(); ++k) {
-    EXPECT_DOUBLE_EQ(c.walls[k].temperature, 350.0) << c.walls[k].name;
+  ASSERT_EQ(c.boundaries.size(), 1u + 4u);  // the plane and the box without its z faces
+  EXPECT_EQ(c.boundaries[0].name, "plate");
+  EXPECT_DOUBLE_EQ(c.boundaries[0].temperature, 0.0);  // no temperature: adiabatic
+  for (std::size_t k = 1; k < c.boundaries.size(); ++k) {
+    EXPECT_DOUBLE_EQ(c.boundaries[k].temperature, 350.0) << c.boundaries[k].name;
   }
 
   // Explicit particles first, then each insertion in order.

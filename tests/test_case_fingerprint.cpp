@@ -165,13 +165,20 @@ TEST(CaseFingerprint, CaseBuiltInCodeIsCovered) {
   };
   EXPECT_TRUE(changed([](Case& c) { c.particles[1].position.z() += 1e-9; }));
   EXPECT_TRUE(changed([](Case& c) { c.particles[0].temperature = 300.0; }));
-  EXPECT_TRUE(changed([](Case& c) { c.bodies[0].motion[0].velocity.x() = 0.06; }));
+  // The roller is walls.1, the boundary after the floor.
+  ASSERT_TRUE(std::holds_alternative<CylinderShape>(base.boundaries.at(1).shape));
+  EXPECT_TRUE(changed([](Case& c) { c.boundaries[1].motion.keys[0].velocity.x() = 0.06; }));
+  EXPECT_TRUE(changed([](Case& c) {
+    std::get<CylinderShape>(c.boundaries[1].shape).axis = Eigen::Vector3d::UnitX();
+  }));
+  EXPECT_TRUE(changed([](Case& c) { c.boundaries[1].motion.spin = 1.0; }));
+  EXPECT_TRUE(changed([](Case& c) { c.boundaries[1].motion.keys[0].angular_velocity = 1.0; }));
   EXPECT_TRUE(changed(
-      [](Case& c) { std::get<CylinderShape>(c.bodies[0].shape).axis = Eigen::Vector3d::UnitX(); }));
-  EXPECT_TRUE(changed([](Case& c) { std::get<CylinderShape>(c.bodies[0].shape).spin = 1.0; }));
-  EXPECT_TRUE(changed([](Case& c) { c.bodies[0].shape = SphereShape{1e-3}; }));
+      [](Case& c) { c.boundaries[1].motion.interpolation = MotionInterpolation::kLinear; }));
+  EXPECT_TRUE(changed([](Case& c) { c.boundaries[1].shape = SphereShape{1e-3}; }));
   EXPECT_TRUE(changed([](Case& c) { c.materials[1].poisson_ratio = 0.31; }));
-  EXPECT_TRUE(changed([](Case& c) { c.walls[0].temperature = 300.0; }));
+  EXPECT_TRUE(changed([](Case& c) { c.boundaries[0].temperature = 300.0; }));
+  EXPECT_TRUE(changed([](Case& c) { c.boundaries[0].center.z() = 1e-9; }));
   EXPECT_TRUE(changed([](Case& c) { c.contact.bond.criterion = BondCriterion::kAlways; }));
   EXPECT_TRUE(changed([](Case& c) { c.thermal = ThermalModel{}; }));
   EXPECT_TRUE(changed([](Case& c) { c.domain->periodic[2] = true; }));

@@ -246,7 +246,7 @@ Case sticky_gas(double end) {
       normal[axis] = side == 0.0 ? 1.0 : -1.0;
       Eigen::Vector3d point = Eigen::Vector3d::Zero();
       point[axis] = side;
-      c.walls.push_back({point, normal, 0, "wall"});
+      c.boundaries.push_back(plane_boundary(point, normal, 0, "wall"));
     }
   }
   return c;

@@ -46,7 +46,7 @@ Case periodic_gas() {
   testing::add_random_gas(c, 500, 0.1e-3, 0.25e-3, 0.006, 2.0, 23);
   c.domain->periodic = {true, true, false};
   const bool open[6] = {true, true, true, true, false, false};
-  c.walls = box_walls(c.domain->min, c.domain->max, 0, open);
+  c.boundaries = box_container(c.domain->min, c.domain->max, 0, open);
   c.gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
   c.time_step = 5e-8;
   c.reorder_interval = 1;
@@ -179,7 +179,7 @@ TEST(Displacement, VtkParticleFilesHoldIt) {
   Case c = periodic_gas();
   c.domain->periodic = {false, false, false};  // so that x - x0 is the displacement itself
   const bool open[6] = {false, false, false, false, false, false};
-  c.walls = box_walls(c.domain->min, c.domain->max, 0, open);
+  c.boundaries = box_container(c.domain->min, c.domain->max, 0, open);
   c.end_time = 2e-4;
   c.vtk_interval = 1e-4;
   testing::quiet_run(c, directory);

@@ -27,7 +27,8 @@ Case sphere_on_floor(double theta, double friction, double rolling_friction) {
   p.radius = kRadius;
   p.position = Eigen::Vector3d(0.0, 0.0, kRadius);
   c.particles.push_back(p);
-  c.walls.push_back({Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 0, "floor"});
+  c.boundaries.push_back(
+      plane_boundary(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 0, "floor"));
   Domain d;
   d.min = Eigen::Vector3d(-0.05, -0.01, -0.01);
   d.max = Eigen::Vector3d(0.05, 0.01, 0.01);

@@ -105,7 +105,8 @@ TEST(Walls, SettledColumnWeighsOnTheFloor) {
   d.max = Eigen::Vector3d(0.008, 0.008, 0.014);
   d.periodic = {true, true, false};
   c.domain = d;
-  c.walls.push_back({Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 1, "floor"});
+  c.boundaries.push_back(
+      plane_boundary(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 1, "floor"));
   c.time_step = 1.5e-6;
   Scene scene = build_scene(c);
   Stepper stepper(scene);
@@ -113,7 +114,7 @@ TEST(Walls, SettledColumnWeighsOnTheFloor) {
   for (const double m : scene.particles.mass) weight += m * 9.81;
   for (int s = 0; s < 100000 && (s < 20000 || stepper.kinetic_energy() > 1e-12); ++s)
     stepper.step();
-  const Eigen::Vector3d floor = stepper.wall_forces()[0];
+  const Eigen::Vector3d floor = stepper.boundary_loads()[0].force;
   EXPECT_NEAR(-floor.z(), weight, 0.01 * weight);  // the particles push the floor down
   EXPECT_NEAR(floor.x(), 0.0, 1e-6 * weight);
 }

@@ -54,7 +54,7 @@ TEST_P(NeighborOracle, MatchesAllPairsAfterMotion) {
   c.domain->periodic = GetParam();
   if (!c.domain->any_periodic()) {
     bool open[6] = {false, false, false, false, false, false};
-    c.walls = box_walls(c.domain->min, c.domain->max, 0, open);
+    c.boundaries = box_container(c.domain->min, c.domain->max, 0, open);
   }
   c.skin = 0.05e-3;
   c.time_step = 2e-7;

@@ -34,6 +34,7 @@ Particles filled() {
   p.walls = kWalls;
   p.contact_history = true;
   p.displacement_tracked = true;
+  p.mesh_contacts = true;
   std::size_t row = 0;
   for (const ParticleField& field : kParticleFields) {
     const std::size_t per = values_per_particle(field, p);
@@ -67,6 +68,7 @@ TEST(ParticleFields, AddGrowsEveryFieldInUse) {
     Particles p;
     p.contact_history = thermal;  // every kind of optional field, on and off
     p.displacement_tracked = thermal;
+    p.mesh_contacts = thermal;
     p.set_wall_count(kWalls);
     const double position[3] = {1.0, 2.0, 3.0};
     const double velocity[3] = {4.0, 5.0, 6.0};
@@ -149,6 +151,7 @@ TEST(ParticleFields, CheckpointKeepsEveryCheckpointedFieldExactly) {
     // Without temperatures, also without contact history: each optional section both ways.
     written.particles.contact_history = thermal;
     written.particles.displacement_tracked = thermal;
+    written.particles.mesh_contacts = thermal;
     if (!thermal) {
       for (const ParticleField& field : kParticleFields) {
         if (!in_use(field, written.particles) || has(field, kThermal)) {

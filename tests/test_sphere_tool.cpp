@@ -19,8 +19,8 @@
 namespace bondem {
 namespace {
 
-Body sphere_tool(const Eigen::Vector3d& center, double radius) {
-  Body body;
+Boundary sphere_tool(const Eigen::Vector3d& center, double radius) {
+  Boundary body;
   body.name = "ball";
   body.center = center;
   body.shape = SphereShape{radius};
@@ -29,7 +29,7 @@ Body sphere_tool(const Eigen::Vector3d& center, double radius) {
 
 TEST(SphereTool, GapAndNormalOutsideTouchingAndInside) {
   const Eigen::Vector3d centre(0.1, -0.2, 0.3);
-  const Body ball = sphere_tool(centre, 0.004);
+  const Boundary ball = sphere_tool(centre, 0.004);
   const Eigen::Vector3d direction = Eigen::Vector3d(2.0, -1.0, 2.0) / 3.0;  // unit
   // Positions near 0.3 m carry rounding of 3e-17 m; over a distance of 1 mm that tilts the
   // normal by up to about 1e-13.
@@ -57,7 +57,7 @@ TEST(SphereTool, GapAndNormalOutsideTouchingAndInside) {
 TEST(SphereTool, QuickApartTestAgreesWithTheExactGap) {
   // The kernel skips the tool when surely_apart holds; it must hold exactly when the exact gap
   // reaches the particle radius (except within rounding of the gap, 1e-12 m, of touching).
-  const Body ball = sphere_tool(Eigen::Vector3d(0.1, -0.2, 0.3), 0.003);
+  const Boundary ball = sphere_tool(Eigen::Vector3d(0.1, -0.2, 0.3), 0.003);
   const double r = 1e-3;
   int apart = 0, touching = 0;
   for (int a = -12; a <= 12; ++a) {
@@ -81,10 +81,10 @@ TEST(SphereTool, QuickApartTestAgreesWithTheExactGap) {
 
 TEST(SphereTool, MovesWithItsMotionAndItsSurfaceWithIt) {
   Case c = testing::soft_case(0.3);
-  Body ball = sphere_tool(Eigen::Vector3d(0.0, 0.0, 0.0), 0.002);
+  Boundary ball = sphere_tool(Eigen::Vector3d(0.0, 0.0, 0.0), 0.002);
   const Eigen::Vector3d v(0.3, -0.1, 0.05);
-  ball.motion = {{0.0, Eigen::Vector3d::Zero()}, {1e-4, v}};
-  c.bodies.push_back(ball);
+  ball.motion.keys = {{0.0, Eigen::Vector3d::Zero()}, {1e-4, v}};
+  c.boundaries.push_back(ball);
   ParticleSpec far;  // the stepper needs a particle; this one never comes near
   far.radius = 1e-3;
   far.position = Eigen::Vector3d(0.05, 0.05, 0.05);
@@ -96,7 +96,7 @@ TEST(SphereTool, MovesWithItsMotionAndItsSurfaceWithIt) {
   Scene scene = build_scene(c);
   Stepper stepper(scene);
   for (int s = 0; s < 300; ++s) stepper.step();  // 0.3 ms: 0.2 ms of it moving
-  const Body& moved = scene.bodies[0];
+  const Boundary& moved = scene.boundaries[0];
   EXPECT_EQ(moved.velocity, v);
   // 0.2 ms at v, give or take the one step in which the key takes over.
   EXPECT_NEAR((moved.center - 2e-4 * v).norm(), 0.0, 1.01 * c.time_step * v.norm());
@@ -106,7 +106,7 @@ TEST(SphereTool, MovesWithItsMotionAndItsSurfaceWithIt) {
         Eigen::Vector3d(0.0, 0.0, 0.002)}) {
     EXPECT_EQ(surface_velocity(moved, moved.center + offset), v);
   }
-  EXPECT_EQ(spin_speed(moved), 0.0);
+  EXPECT_EQ(rotation_speed(moved), 0.0);
 }
 
 /// One particle of radius 1 mm a little above a fixed sphere tool of radius @p tool_radius, under
@@ -119,7 +119,7 @@ Case drop_on_sphere(double tool_radius, double damping, double height) {
   p.radius = 1e-3;
   p.position = Eigen::Vector3d(0.0, 0.0, tool_radius + 1e-3 + height);
   c.particles.push_back(p);
-  c.bodies.push_back(sphere_tool(Eigen::Vector3d::Zero(), tool_radius));
+  c.boundaries.push_back(sphere_tool(Eigen::Vector3d::Zero(), tool_radius));
   Domain d;
   d.min = Eigen::Vector3d::Constant(-0.02);
   d.max = Eigen::Vector3d::Constant(0.02);
@@ -151,7 +151,7 @@ TEST(SphereTool, ParticleDroppedOnItRestsOnTopAtTheHertzOverlapOfItsWeight) {
   EXPECT_NEAR(p.y[0], 0.0, 1e-12);
   EXPECT_NEAR(p.vz[0], 0.0, 1e-6);
   // The tool carries the weight: the load on it (the only boundary) is the particle's weight.
-  EXPECT_NEAR(stepper.wall_forces()[0].z(), -weight, 1e-3 * weight);
+  EXPECT_NEAR(stepper.boundary_loads()[0].force.z(), -weight, 1e-3 * weight);
 }
 
 TEST(SphereTool, ParticleFallingOffCentreSlidesOffItAndFallsPast) {
@@ -191,15 +191,15 @@ output:
 
 TEST(SphereTool, ReaderAcceptsItAndRefusesABadRadiusNamingTheKey) {
   const Case c = parse_case(kSphereCase, "case.yaml", {});
-  ASSERT_EQ(c.bodies.size(), 1u);
-  const Body& ball = c.bodies[0];
+  ASSERT_EQ(c.boundaries.size(), 1u);
+  const Boundary& ball = c.boundaries[0];
   ASSERT_TRUE(std::holds_alternative<SphereShape>(ball.shape));
   EXPECT_EQ(std::get<SphereShape>(ball.shape).radius, 0.003);
   EXPECT_EQ(ball.center, Eigen::Vector3d(0.0, 0.0, 0.002));
   EXPECT_EQ(ball.name, "indenter");
   EXPECT_EQ(ball.material, 1);
-  ASSERT_EQ(ball.motion.size(), 1u);
-  EXPECT_EQ(ball.motion[0].velocity, Eigen::Vector3d(0.0, 0.0, 0.1));
+  ASSERT_EQ(ball.motion.keys.size(), 1u);
+  EXPECT_EQ(ball.motion.keys[0].velocity, Eigen::Vector3d(0.0, 0.0, 0.1));
 
   for (const char* bad : {"0", "-0.003", "nan", "[1, 2]"}) {
     const std::string error = testing::error_of(
@@ -211,11 +211,11 @@ TEST(SphereTool, ReaderAcceptsItAndRefusesABadRadiusNamingTheKey) {
             std::string::npos);
   EXPECT_NE(testing::error_of(testing::replace(kSphereCase, "center:", "point:"))
                 .find("'walls.0.point': unknown key (expected one of: type, center, radius, "
-                      "material, motion, name)"),
+                      "material, motion, name, temperature)"),
             std::string::npos);
   // An unknown type lists the sphere among the known ones.
   EXPECT_NE(testing::error_of(testing::replace(kSphereCase, "type: sphere", "type: ball"))
-                .find("unknown wall type 'ball' (plane, box, blade, roller or sphere)"),
+                .find("unknown wall type 'ball' (box, plane, blade, roller, sphere or mesh)"),
             std::string::npos);
 }
 
@@ -226,14 +226,14 @@ TEST(SphereTool, VtkOutlineIsAClosedSphereAtTheToolsPosition) {
   fs::remove_all(dir);
   const Eigen::Vector3d centre(0.001, 0.002, 0.003);
   const double radius = 0.0015;
-  Body ball = sphere_tool(centre, radius);
+  Boundary ball = sphere_tool(centre, radius);
   ball.material = 2;
   Domain domain;
   domain.max = Eigen::Vector3d::Constant(0.01);
   {
     VtkSeriesWriter writer(dir.string());
     Particles none;
-    writer.write_frame(0.0, none, {}, {}, domain, {}, {}, {ball});
+    writer.write_frame(0.0, none, {}, {ball}, domain);
   }
   const VtpContents tools = read_vtp((dir / "tools_000000.vtp").string());
   fs::remove_all(dir);

@@ -72,7 +72,9 @@ const SpreadingRun& spreading_run(const std::string& name) {
   run.c = load_case(BONDEM_CASES_DIR "/" + name + ".yaml", {"output.history_interval=1e-4"});
   run.directory = testing::test_root() / ("bondem_spreading_" + name);
   run.r = testing::quiet_run(run.c, run.directory);
-  const double blade_start = run.c.bodies.at(0).motion.back().time;
+  const auto blade = std::find_if(run.c.boundaries.begin(), run.c.boundaries.end(),
+                                  [](const Boundary& b) { return b.name == "blade"; });
+  const double blade_start = blade->motion.keys.back().time;
   const std::vector<double> means =
       history_means(run.directory / "history.csv",
                     {"load_substrate_x", "load_substrate_z", "load_blade_x"}, blade_start);

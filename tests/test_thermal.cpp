@@ -291,8 +291,8 @@ TEST(ThermalConservation, HeldWallSuppliesWhatItConducts) {
   c.reorder_interval = 0;  // indices stay put: per-index bookkeeping
   c.materials.push_back({"steel", 7800.0, 5.0e6, 0.3, 500.0, 16.0, 0.0});
   const bool open[6] = {true, true, true, true, false, false};
-  c.walls = box_walls(Eigen::Vector3d::Zero(), Eigen::Vector3d::Constant(0.008), 1, open);
-  c.walls[0].temperature = 1500.0;  // floor
+  c.boundaries = box_container(Eigen::Vector3d::Zero(), Eigen::Vector3d::Constant(0.008), 1, open);
+  c.boundaries[0].temperature = 1500.0;  // floor
   Scene scene = build_scene(c);
   Stepper stepper(scene);
   const Particles& p = scene.particles;
@@ -525,7 +525,8 @@ Stack stack_on_floor(double t_bottom, double t_top) {
   const double r = 1e-3;
   const double g = 9.81;
   c.gravity = Eigen::Vector3d(0.0, 0.0, -g);
-  c.walls.push_back({Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 0, "floor"});
+  c.boundaries.push_back(
+      plane_boundary(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 0, "floor"));
   c.contact.bond.criterion = BondCriterion::kTemperature;
   c.contact.bond.temperature = 800.0;
   c.contact.bond.alpha = 0.0;
@@ -692,7 +693,8 @@ TEST(ThermalDeterminism, SameBytesAtOneAndTwoThreads) {
   c.thermal->convection_coefficient = 10.0;
   c.thermal->radiation = true;
   c.gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
-  c.walls.push_back({Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 1, "substrate", 353.0});
+  c.boundaries.push_back(
+      plane_boundary(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 1, "substrate", 353.0));
   c.skin = 1e-6;
   c.reorder_interval = 2;
   const double r = 15e-6;

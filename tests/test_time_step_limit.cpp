@@ -165,17 +165,21 @@ TEST(CaseLimit, ShippedCasesAndPaperFiguresPassTheirLimit) {
 
 TEST(CaseLimit, ToolSpeedEntersTheLimit) {
   Case c = load_case(BONDEM_CASES_DIR "/powder_spreading_ci.yaml");
-  ASSERT_FALSE(c.bodies.empty());
+  const auto blade = std::find_if(c.boundaries.begin(), c.boundaries.end(),
+                                  [](const Boundary& b) { return b.motion.moves(); });
+  ASSERT_NE(blade, c.boundaries.end());
   const double before = case_time_step_limit(c);
-  c.bodies[0].motion.back().velocity.x() = 1e5;
+  blade->motion.keys.back().velocity.x() = 1e5;
   EXPECT_GE(reference_impact_speed(c), 2e5);
   const TimeStepLimit limit = case_time_step_bound(c);
   EXPECT_LT(limit.step, 1e-3 * before);
-  EXPECT_NE(limit.cause.find("tool '" + c.bodies[0].name + "'"), std::string::npos) << limit.cause;
+  EXPECT_NE(limit.cause.find("tool '" + blade->name + "'"), std::string::npos) << limit.cause;
   // A roller's rim speed counts like translation.
-  Body roller;
-  roller.shape = CylinderShape{Eigen::Vector3d::UnitY(), 0.01, 100.0};
-  roller.motion.push_back({0.0, Eigen::Vector3d(0.5, 0.0, 0.0)});
+  Boundary roller;
+  roller.shape = CylinderShape{Eigen::Vector3d::UnitY(), 0.01};
+  roller.motion.axis = Eigen::Vector3d::UnitY();
+  roller.motion.spin = 100.0;
+  roller.motion.keys.push_back({0.0, Eigen::Vector3d(0.5, 0.0, 0.0)});
   EXPECT_DOUBLE_EQ(tool_surface_speed(roller), 1.5);
 }
 

@@ -22,7 +22,8 @@ Case row_on_floor(int count) {
     p.position = Eigen::Vector3d(0.004 + 0.0021 * k, 0.005, 1e-3);
     c.particles.push_back(p);
   }
-  c.walls.push_back({Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 0, "floor"});
+  c.boundaries.push_back(
+      plane_boundary(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 0, "floor"));
   Domain d;
   d.min = Eigen::Vector3d(0.0, 0.0, -0.002);
   d.max = Eigen::Vector3d(0.05, 0.01, 0.01);
@@ -36,15 +37,15 @@ TEST(Tools, QuickApartTestAgreesWithTheExactGap) {
   // The kernel skips a tool when surely_apart holds; it must hold exactly when the exact gap
   // reaches the radius. Points on a grid around a box and a slanted cylinder, radius 1 mm; the
   // two agree except within rounding of the gap (1e-12 m here) of the touching distance.
-  Body box;
+  Boundary box;
   box.center = Eigen::Vector3d(0.1, -0.2, 0.3);
   box.shape = BoxShape{Eigen::Vector3d(0.002, 0.004, 0.001)};
-  Body cylinder;
+  Boundary cylinder;
   cylinder.center = box.center;
   cylinder.shape = CylinderShape{Eigen::Vector3d(1.0, 2.0, 0.5).normalized(), 0.003};
   const double r = 1e-3;
   int apart = 0, touching = 0;
-  for (const Body* body : {&box, &cylinder}) {
+  for (const Boundary* body : {&box, &cylinder}) {
     for (int a = -12; a <= 12; ++a) {
       for (int b = -12; b <= 12; ++b) {
         for (int c = -12; c <= 12; ++c) {
@@ -63,12 +64,12 @@ TEST(Tools, QuickApartTestAgreesWithTheExactGap) {
 
 TEST(Blade, PushesParticlesAndItsLoadBalancesTheirMomentum) {
   Case c = row_on_floor(4);
-  Body blade;
+  Boundary blade;
   blade.name = "blade";
   blade.center = Eigen::Vector3d(0.0024, 0.005, 0.003);  // front face 0.1 mm behind the row
   blade.shape = BoxShape{Eigen::Vector3d(0.0005, 0.01, 0.003)};
-  blade.motion = {{0.0, Eigen::Vector3d(0.1, 0.0, 0.0)}};
-  c.bodies.push_back(blade);
+  blade.motion.keys = {{0.0, Eigen::Vector3d(0.1, 0.0, 0.0)}};
+  c.boundaries.push_back(blade);
   Scene scene = build_scene(c);
   Stepper stepper(scene);
   const Particles& p = scene.particles;
@@ -82,10 +83,11 @@ TEST(Blade, PushesParticlesAndItsLoadBalancesTheirMomentum) {
   // forces of successive evaluations. With a frictionless floor and pair forces cancelling in
   // pairs, only the blade pushes along x.
   double impulse = 0.0;
-  double previous = -stepper.wall_forces()[1].x();
+  double previous = -stepper.boundary_loads()[1].force.x();
   for (int s = 0; s < 50000; ++s) {  // 10 ms: the blade travels 0.9 mm into the row
     stepper.step();
-    const double current = -stepper.wall_forces()[1].x();  // force of the blade on particles
+    const double current =
+        -stepper.boundary_loads()[1].force.x();  // force of the blade on particles
     impulse += 0.5 * c.time_step * (previous + current);
     previous = current;
   }
@@ -99,12 +101,14 @@ TEST(Blade, PushesParticlesAndItsLoadBalancesTheirMomentum) {
 TEST(Roller, SpinDragsAParticleAlongItsSurface) {
   Case c = row_on_floor(1);
   c.contact.friction = 0.5;
-  Body roller;
+  Boundary roller;
   roller.name = "roller";
   // Spinning about +y at 50 rad/s: the bottom of the roller moves toward -x.
-  roller.shape = CylinderShape{Eigen::Vector3d::UnitY(), 0.003, 50.0};
+  roller.shape = CylinderShape{Eigen::Vector3d::UnitY(), 0.003};
+  roller.motion.axis = Eigen::Vector3d::UnitY();
+  roller.motion.spin = 50.0;
   roller.center = Eigen::Vector3d(0.004, 0.005, 0.002 + 0.003 - 2e-6);  // pressing lightly
-  c.bodies.push_back(roller);
+  c.boundaries.push_back(roller);
   Scene scene = build_scene(c);
   Stepper stepper(scene);
   for (int s = 0; s < 20000; ++s) stepper.step();

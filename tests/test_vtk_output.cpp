@@ -80,16 +80,10 @@ Domain make_domain() {
 }
 
 /// The floor of the box and an oblique plane through it.
-std::vector<PlaneWall> make_walls() {
-  PlaneWall floor;
-  floor.normal = Eigen::Vector3d::UnitZ();
-  floor.name = "box.z_min";
-  PlaneWall slope;
-  slope.point = Eigen::Vector3d(0.002, 0.0, 0.0);
-  slope.normal = Eigen::Vector3d(1.0, 0.0, 1.0).normalized();
-  slope.material = 1;
-  slope.name = "slope";
-  return {floor, slope};
+std::vector<Boundary> make_walls() {
+  return {plane_boundary(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 0, "box.z_min"),
+          plane_boundary(Eigen::Vector3d(0.002, 0.0, 0.0),
+                         Eigen::Vector3d(1.0, 0.0, 1.0).normalized(), 1, "slope")};
 }
 
 std::vector<ContactRecord> make_contacts(const Particles& p, int frame) {
@@ -137,7 +131,7 @@ TEST_F(VtkOutput, ThreeFramesReadBackExactly) {
 
   Particles p = make_particles();
   const Domain domain = make_domain();
-  const std::vector<PlaneWall> walls = make_walls();
+  const std::vector<Boundary> walls = make_walls();
   // Angular velocity and temperature are the particles' own fields (kParticleFields); the
   // coordination is a field derived per frame, passed by the caller.
   p.temperature.assign(kParticles, 0.0);
@@ -249,7 +243,7 @@ TEST_F(VtkOutput, ThreeFramesReadBackExactly) {
   const double tolerance = 1e-12 * domain.length().norm();
   for (std::int64_t id : wall_data.cells[1]) {
     const Eigen::Vector3d& q = wall_data.points[static_cast<std::size_t>(id)];
-    EXPECT_NEAR(distance_to(walls[1], q.x(), q.y(), q.z()), 0.0, tolerance);
+    EXPECT_NEAR(nearest_surface(walls[1], q).gap, 0.0, tolerance);
     for (int a = 0; a < 3; ++a) {
       EXPECT_GE(q[a], domain.min[a] - tolerance);
       EXPECT_LE(q[a], domain.max[a] + tolerance);
@@ -291,10 +285,10 @@ TEST_F(VtkOutput, FilesAreBinaryAppendedAndZlibCompressed) {
 TEST_F(VtkOutput, MovedWallGetsNewFileAndEveryFrameAnEntry) {
   VtkSeriesWriter writer(root_.string());
   Particles p = make_particles();
-  std::vector<PlaneWall> walls = make_walls();
+  std::vector<Boundary> walls = make_walls();
   const Domain domain = make_domain();
   writer.write_frame(0.0, p, {}, walls, domain);
-  walls[0].point.z() = 1e-3;  // the floor rises
+  walls[0].center.z() = 1e-3;  // the floor rises
   writer.write_frame(1e-4, p, {}, walls, domain);
   writer.write_frame(2e-4, p, {}, walls, domain);
   const auto entries = pvd_entries(root_ / "walls.pvd");

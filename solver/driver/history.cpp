@@ -14,7 +14,7 @@ std::string exact_text(double value) {
 }
 
 std::vector<HistoryColumn> history_columns(const Scene& scene, const Stepper& stepper,
-                                           const std::vector<Eigen::Vector3d>& loads) {
+                                           const std::vector<BoundaryLoad>& loads) {
   const auto count = [](auto n) { return static_cast<double>(n); };
   std::vector<HistoryColumn> columns{
       {"time", "s", [&] { return stepper.time(); }},
@@ -37,14 +37,19 @@ std::vector<HistoryColumn> history_columns(const Scene& scene, const Stepper& st
                        }});
     columns.push_back({"laser_energy", "J", [&] { return stepper.laser_energy(); }});
   }
-  // The force the particles exert on each wall, then each tool.
-  std::vector<std::string> names;
-  for (const PlaneWall& wall : scene.walls) names.push_back(wall.name);
-  for (const Body& body : scene.bodies) names.push_back(body.name);
-  for (std::size_t k = 0; k < names.size(); ++k) {
+  // The force the particles exert on each boundary, then its moment about its reference point.
+  for (std::size_t k = 0; k < scene.boundaries.size(); ++k) {
+    const std::string& name = scene.boundaries[k].name;
     for (const int axis : {0, 1, 2}) {
-      columns.push_back({"load_" + names[k] + "_" + "xyz"[axis], "N",
-                         [&loads, k, axis] { return loads[k][axis]; }});
+      columns.push_back({"load_" + name + "_" + "xyz"[axis], "N",
+                         [&loads, k, axis] { return loads[k].force[axis]; }});
+    }
+  }
+  for (std::size_t k = 0; k < scene.boundaries.size(); ++k) {
+    const std::string& name = scene.boundaries[k].name;
+    for (const int axis : {0, 1, 2}) {
+      columns.push_back({"moment_" + name + "_" + "xyz"[axis], "N m",
+                         [&loads, k, axis] { return loads[k].moment[axis]; }});
     }
   }
   return columns;
@@ -99,7 +104,7 @@ BlowUpError non_finite_history(const Simulation& simulation, const std::string& 
 }  // namespace
 
 void History::record(const Simulation& simulation) {
-  loads_ = simulation.stepper().wall_forces();
+  loads_ = simulation.stepper().boundary_loads();
   std::ostringstream row;
   std::string non_finite;  // the first column that is not finite
   for (const HistoryColumn& column : columns_) {

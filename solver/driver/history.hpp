@@ -24,10 +24,10 @@ struct HistoryColumn {
 };
 
 /// The columns of the history, declared once: the header and every row come from this list.
-/// Counts are exact in a double (below 2^53) and print as integers. @p loads must hold the wall
-/// and tool loads of the row being written (Stepper::wall_forces(), read once per row).
+/// Counts are exact in a double (below 2^53) and print as integers. @p loads must hold the
+/// boundary loads of the row being written (Stepper::boundary_loads(), read once per row).
 std::vector<HistoryColumn> history_columns(const Scene& scene, const Stepper& stepper,
-                                           const std::vector<Eigen::Vector3d>& loads);
+                                           const std::vector<BoundaryLoad>& loads);
 
 /// The header line of the history (column names, comma-separated, newline-terminated).
 std::string history_header(const std::vector<HistoryColumn>& columns);
@@ -62,7 +62,7 @@ class History : public Observer {
   /// Append the row of the current state. Throws BlowUpError on a value that is not finite.
   void record(const Simulation& simulation);
 
-  std::vector<Eigen::Vector3d> loads_;  ///< of the row being written; the columns read it
+  std::vector<BoundaryLoad> loads_;  ///< of the row being written; the columns read it
   std::vector<HistoryColumn> columns_;
   std::int64_t every_;
   Sink sink_;

@@ -15,10 +15,14 @@
 #include <cmath>
 #include <cstdint>
 #include <functional>
+#include <limits>
+#include <span>
+#include <type_traits>
+#include <variant>
 #include <vector>
 
-#include "geometry/bodies.hpp"
-#include "geometry/walls.hpp"
+#include "geometry/boundary.hpp"
+#include "geometry/triangle_mesh.hpp"
 #include "solver/engine/neighbor_list.hpp"
 #include "solver/engine/scene.hpp"
 #include "solver/models/contact_laws.hpp"
@@ -383,33 +387,129 @@ double surface_contact(Particles& p, const Scene& scene, const Law& law, int mat
   return overlap;
 }
 
-/// Contact of particle i with boundary @p b: the walls first, then the moving bodies. Returns the
-/// overlap when in contact; without contact, a value <= 0 (for a body far away, just 0).
+/// A mesh contact keeps its slot, and so its tangential and rolling history, when its normal
+/// turned by less than 60 degrees since the last evaluation (cosine above this): rolling over a
+/// tessellated floor or round a convex edge turns it by far less per step, while two faces of a
+/// concave corner differ by 90 degrees or more.
+inline constexpr double kSameMeshContactCosine = 0.5;
+
+/// One contact a boundary made with particle i: what gather_boundaries adds up.
+struct BoundaryContact {
+  double overlap = 0.0;    ///< <= 0: no contact, though a holding JKR contact still pulls
+  Eigen::Vector3d force;   ///< on the particle
+  Eigen::Vector3d torque;  ///< on the particle, about its centre
+  Eigen::Vector3d point;   ///< on the boundary surface, for the boundary's torque
+};
+
+/// The contact of particle i with analytic (non-mesh) boundary @p b in slot @p slot, or none
+/// (overlap <= 0, zero force) when the sphere cannot reach it.
 template <bool kFriction, bool kModels, class Law>
-double boundary_contact(Particles& p, const Scene& scene, const Law& law, std::size_t b,
-                        std::size_t i, Eigen::Vector3d& force, Eigen::Vector3d& torque) {
-  if (b < scene.walls.size()) {
-    const PlaneWall& wall = scene.walls[b];
-    return surface_contact<kFriction, kModels>(p, scene, law, wall.material, b, i,
-                                               distance_to(wall, p.x[i], p.y[i], p.z[i]),
-                                               wall.normal, Eigen::Vector3d::Zero(), force, torque);
-  }
-  const Body& body = scene.bodies[b - scene.walls.size()];
+BoundaryContact analytic_boundary_contact(Particles& p, const Scene& scene, const Law& law,
+                                          std::size_t b, const BoundaryFrame& frame,
+                                          std::size_t i) {
+  const Boundary& boundary = scene.boundaries[b];
+  const std::size_t slot = static_cast<std::size_t>(scene.first_slot[b]);
   const Eigen::Vector3d centre(p.x[i], p.y[i], p.z[i]);
-  // A JKR contact reaches past touching by up to the scene's contact range.
-  if (surely_apart(body, centre, p.radius[i] + scene.contact_range)) {
-    // Most particles are far from a tool: skip its exact distance and the law. The result is
-    // that of surface_contact without contact; the overlap returned is only known to be <= 0.
-    force.setZero();
-    torque.setZero();
-    release_surface<kFriction, kModels>(p, b, i);
-    return 0.0;
+  const Eigen::Vector3d w = frame.to_body(centre, boundary.center);
+  BoundaryContact contact;
+  const SurfacePoint local = std::visit(
+      [&](const auto& shape) -> SurfacePoint {
+        if constexpr (std::is_same_v<std::decay_t<decltype(shape)>, MeshShape>) {
+          return {std::numeric_limits<double>::infinity(), Eigen::Vector3d::UnitZ()};
+        } else {
+          // A JKR contact reaches past touching by up to the scene's contact range.
+          if (shape.surely_apart(w, p.radius[i] + scene.contact_range)) {
+            return {std::numeric_limits<double>::infinity(), Eigen::Vector3d::UnitZ()};
+          }
+          return shape.nearest(w);
+        }
+      },
+      boundary.shape);
+  if (local.gap == std::numeric_limits<double>::infinity()) {
+    // Most particles are far from most boundaries: no exact distance, no law, no history.
+    contact.force.setZero();
+    contact.torque.setZero();
+    release_surface<kFriction, kModels>(p, slot, i);
+    return contact;
   }
-  const SurfacePoint surface = nearest_surface(body, centre);
-  const Eigen::Vector3d point = centre - surface.gap * surface.normal;
-  return surface_contact<kFriction, kModels>(p, scene, law, body.material, b, i, surface.gap,
-                                             surface.normal, surface_velocity(body, point), force,
-                                             torque);
+  const Eigen::Vector3d normal = frame.to_world(local.normal);
+  contact.point = centre - local.gap * normal;
+  contact.overlap = surface_contact<kFriction, kModels>(
+      p, scene, law, boundary.material, slot, i, local.gap, normal,
+      surface_velocity(boundary, contact.point), contact.force, contact.torque);
+  return contact;
+}
+
+/// The contacts of particle i with mesh boundary @p b, each passed to @p add (a BoundaryContact),
+/// in the double-contact rule's order. Each contact takes the slot whose last normal (boundary
+/// frame) is nearest its own within kSameMeshContactCosine, else a free slot with fresh history;
+/// slots left without a contact are released.
+template <bool kFriction, bool kModels, class Law, class Add>
+void mesh_boundary_contacts(Particles& p, const Scene& scene, const Law& law, std::size_t b,
+                            const BoundaryFrame& frame, std::size_t i, MeshQueryBuffer& buffer,
+                            Add&& add) {
+  const Boundary& boundary = scene.boundaries[b];
+  const MeshSurface& surface = *std::get<MeshShape>(boundary.shape).surface;
+  const std::size_t first = static_cast<std::size_t>(scene.first_slot[b]);
+  const int slots = scene.slot_count[b];
+  double* normals = &p.wall_normal[(i * static_cast<std::size_t>(p.walls) + first) * 3];
+  const Eigen::Vector3d centre(p.x[i], p.y[i], p.z[i]);
+  const Eigen::Vector3d w = frame.to_body(centre, boundary.center);
+  const double reach = p.radius[i] + scene.contact_range;
+  const auto release = [&](int s) {
+    release_surface<kFriction, kModels>(p, first + static_cast<std::size_t>(s), i);
+    normals[3 * s] = normals[3 * s + 1] = normals[3 * s + 2] = 0.0;
+  };
+  if (std::get<MeshShape>(boundary.shape).surely_apart(w, reach)) {
+    for (int s = 0; s < slots; ++s) release(s);
+    return;
+  }
+  const std::span<const MeshContact> found =
+      mesh_contacts(surface.mesh, surface.grid, w, reach, buffer);
+  const int count = std::min(static_cast<int>(found.size()), slots);
+  int slot_of[kMeshContactSlots];
+  bool claimed[kMeshContactSlots] = {};
+  // Carried contacts first: each takes the unclaimed slot whose normal is nearest its own.
+  for (int k = 0; k < count; ++k) {
+    slot_of[k] = -1;
+    double best = kSameMeshContactCosine;
+    for (int s = 0; s < slots; ++s) {
+      const double cosine = normals[3 * s] * found[k].normal.x() +
+                            normals[3 * s + 1] * found[k].normal.y() +
+                            normals[3 * s + 2] * found[k].normal.z();
+      if (!claimed[s] && cosine > best) {
+        best = cosine;
+        slot_of[k] = s;
+      }
+    }
+    if (slot_of[k] >= 0) claimed[slot_of[k]] = true;
+  }
+  // New contacts take the first free slots, with fresh history.
+  for (int k = 0; k < count; ++k) {
+    if (slot_of[k] >= 0) continue;
+    int s = 0;
+    while (claimed[s]) ++s;
+    release(s);
+    slot_of[k] = s;
+    claimed[s] = true;
+  }
+  for (int s = 0; s < slots; ++s) {
+    if (!claimed[s]) release(s);
+  }
+  for (int k = 0; k < count; ++k) {
+    const MeshContact& found_k = found[k];
+    const int s = slot_of[k];
+    BoundaryContact contact;
+    const Eigen::Vector3d normal = frame.to_world(found_k.normal);
+    contact.point = centre - found_k.gap * normal;
+    contact.overlap = surface_contact<kFriction, kModels>(
+        p, scene, law, boundary.material, first + static_cast<std::size_t>(s), i, found_k.gap,
+        normal, surface_velocity(boundary, contact.point), contact.force, contact.torque);
+    normals[3 * s] = found_k.normal.x();
+    normals[3 * s + 1] = found_k.normal.y();
+    normals[3 * s + 2] = found_k.normal.z();
+    add(contact);
+  }
 }
 
 /// Particles per block of the wall-load partial sums of gather_forces.
@@ -457,48 +557,59 @@ template <bool kFriction>
       });
 }
 
-/// What the walls and tools did to the particles of a block of pass 2.
+/// What the boundaries did to the particles of a block of pass 2.
 struct BoundaryTally {
   std::size_t contacts = 0;
   double max_overlap = 0.0;
   double max_fraction = 0.0;
 };
 
-/// Adds every wall's and tool's contact with particle i to @p load and to the block's wall loads
-/// @p block_load (3 values per boundary); walls held at a temperature also conduct heat.
+/// Values per boundary of the block loads of gather_forces: the force of the boundary on the
+/// particles (3) and its moment about the boundary's reference point (3).
+inline constexpr std::size_t kBoundaryLoadValues = 6;
+
+/// Adds every boundary's contacts with particle i to @p load and to the block's boundary loads
+/// @p block_load (kBoundaryLoadValues per boundary); boundaries held at a temperature also
+/// conduct heat. @p frames: every boundary's frame at its current pose.
 template <bool kFriction, bool kModels, class Law>
 [[gnu::always_inline]] inline void gather_boundaries(Particles& p, const Scene& scene,
-                                                     const Law& law, std::size_t i, bool thermal,
-                                                     double* block_load, ParticleLoad& load,
-                                                     BoundaryTally& tally) {
-  const std::size_t boundaries = scene.walls.size() + scene.bodies.size();
-  for (std::size_t w = 0; w < boundaries; ++w) {
-    Eigen::Vector3d wall_f, wall_tau;
-    const double overlap =
-        boundary_contact<kFriction, kModels>(p, scene, law, w, i, wall_f, wall_tau);
-    if (overlap <= 0.0) {
+                                                     const Law& law,
+                                                     const std::vector<BoundaryFrame>& frames,
+                                                     std::size_t i, bool thermal,
+                                                     MeshQueryBuffer& buffer, double* block_load,
+                                                     ParticleLoad& load, BoundaryTally& tally) {
+  for (std::size_t b = 0; b < scene.boundaries.size(); ++b) {
+    const Boundary& boundary = scene.boundaries[b];
+    double* boundary_load = block_load + b * kBoundaryLoadValues;
+    const auto add = [&](const BoundaryContact& contact) {
       // A JKR contact held apart still pulls; it conducts no heat and counts as no contact.
-      if constexpr (kModels) {
-        load.force += wall_f;
-        load.torque += wall_tau;
-        for (int axis = 0; axis < 3; ++axis) block_load[w * 3 + axis] += wall_f[axis];
+      if (contact.overlap <= 0.0 && !kModels) return;
+      const Eigen::Vector3d moment = (contact.point - boundary.center).cross(contact.force);
+      for (int axis = 0; axis < 3; ++axis) {
+        boundary_load[axis] += contact.force[axis];
+        boundary_load[3 + axis] += moment[axis];
       }
-      continue;
-    }
-    block_load[w * 3 + 0] += wall_f.x();
-    block_load[w * 3 + 1] += wall_f.y();
-    block_load[w * 3 + 2] += wall_f.z();
-    load.force += wall_f;
-    load.torque += wall_tau;
-    ++tally.contacts;
-    tally.max_overlap = std::max(tally.max_overlap, overlap);
-    tally.max_fraction = std::max(tally.max_fraction, overlap / p.radius[i]);
-    if (thermal && w < scene.walls.size() && scene.walls[w].temperature > 0.0) {
-      const PlaneWall& wall = scene.walls[w];
-      const double h = spot_conductance(scene.pair(p.material[i], wall.material).conductivity,
-                                        spot_radius(p.radius[i], overlap));
-      load.heat += contact_heat_flow(h, p.temperature[i], wall.temperature);
-      load.conductance += h;
+      load.force += contact.force;
+      load.torque += contact.torque;
+      if (contact.overlap <= 0.0) return;
+      ++tally.contacts;
+      tally.max_overlap = std::max(tally.max_overlap, contact.overlap);
+      tally.max_fraction = std::max(tally.max_fraction, contact.overlap / p.radius[i]);
+      if (thermal && boundary.temperature > 0.0) {
+        const double h = spot_conductance(scene.pair(p.material[i], boundary.material).conductivity,
+                                          spot_radius(p.radius[i], contact.overlap));
+        load.heat += contact_heat_flow(h, p.temperature[i], boundary.temperature);
+        load.conductance += h;
+      }
+    };
+    if (std::holds_alternative<MeshShape>(boundary.shape)) {
+      mesh_boundary_contacts<kFriction, kModels>(p, scene, law, b, frames[b], i, buffer, add);
+    } else {
+      const BoundaryContact contact =
+          analytic_boundary_contact<kFriction, kModels>(p, scene, law, b, frames[b], i);
+      if (contact.overlap > 0.0 || (kModels && contact.force != Eigen::Vector3d::Zero())) {
+        add(contact);
+      }
     }
   }
 }
@@ -515,9 +626,10 @@ template <bool kFriction, bool kModels, class Law>
 }
 
 /// Pass 2: total force (and, with kFriction, torque) per particle = gravity + own pairs -
-/// transposed pairs + walls. The force of each wall on the particles is summed per block of
-/// kWallLoadBlock particles into @p wall_forces (3 values per block and wall): the caller adds the
-/// blocks in order, so wall loads need no per-particle storage and keep one summation order. In
+/// transposed pairs + boundaries. The force and moment of each boundary on the particles are
+/// summed per block of kWallLoadBlock particles into @p wall_forces (kBoundaryLoadValues per block
+/// and boundary): the caller adds the blocks in order, so boundary loads need no per-particle
+/// storage and keep one summation order. In
 /// thermal runs the same order sums the heat flows into p.heat_rate: contacts, walls held at a
 /// temperature, convection and radiation (the laser is added by the caller). kModels as in
 /// compute_pair_forces.
@@ -526,9 +638,12 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
                              const Law& law, const PairForces& pair_forces,
                              std::vector<double>& wall_forces) {
   const std::size_t n = p.size();
-  const std::size_t walls = scene.walls.size() + scene.bodies.size();
+  const std::size_t boundaries = scene.boundaries.size();
   const std::size_t blocks = (n + kWallLoadBlock - 1) / kWallLoadBlock;
-  wall_forces.assign(blocks * walls * 3, 0.0);
+  wall_forces.assign(blocks * boundaries * kBoundaryLoadValues, 0.0);
+  std::vector<BoundaryFrame> frames;
+  frames.reserve(boundaries);
+  for (const Boundary& boundary : scene.boundaries) frames.push_back(frame_of(boundary));
   const Eigen::Vector3d g = scene.gravity;
   std::size_t wall_contacts = 0;
   double max_overlap = 0.0;
@@ -539,13 +654,16 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) \
     reduction(+ : wall_contacts) reduction(max : max_overlap, max_fraction, thermal_ratio)
   for (std::size_t block = 0; block < blocks; ++block) {
-    double* block_load = wall_forces.data() + block * walls * 3;  // no walls: never written
+    // Without boundaries never written.
+    double* block_load = wall_forces.data() + block * boundaries * kBoundaryLoadValues;
     BoundaryTally tally;
+    thread_local MeshQueryBuffer buffer;  // reused: mesh queries allocate only while it grows
     const std::size_t block_end = std::min(n, (block + 1) * kWallLoadBlock);
     for (std::size_t i = block * kWallLoadBlock; i < block_end; ++i) {
       ParticleLoad load{p.mass[i] * g, Eigen::Vector3d::Zero()};
       gather_pairs<kFriction>(p, list, pair_forces, i, thermal, rolling, load);
-      gather_boundaries<kFriction, kModels>(p, scene, law, i, thermal, block_load, load, tally);
+      gather_boundaries<kFriction, kModels>(p, scene, law, frames, i, thermal, buffer, block_load,
+                                            load, tally);
       if (thermal) {
         exchange_with_surroundings(p, scene, i, load);
         p.heat_rate[i] = load.heat;

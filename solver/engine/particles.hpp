@@ -52,6 +52,12 @@ struct Particles {
   /// Whether some material pair keeps history beyond the tangential spring (EPSD rolling or JKR
   /// cohesion): then the kContactHistory fields are in use.
   bool contact_history = false;
+  /// Per wall slot and particle, when mesh_contacts: the unit normal of the contact the slot held
+  /// in the last evaluation (zero: none), 3 values. A mesh contact moving from one triangle to
+  /// the next keeps its slot, and so its history, by this normal.
+  std::vector<double> wall_normal;
+  /// Whether some boundary is a triangle mesh: then the kMeshHistory fields are in use.
+  bool mesh_contacts = false;
   // Thermal state; these arrays are empty when the case has no `thermal:` block.
   std::vector<double> temperature;        ///< [K]
   std::vector<double> peak_temperature;   ///< highest temperature reached so far [K]
@@ -72,6 +78,7 @@ struct Particles {
     wall_contact.assign(
         contact_history ? size() * static_cast<std::size_t>(kWallContactValues * wall_count) : 0,
         0.0);
+    wall_normal.assign(mesh_contacts ? size() * static_cast<std::size_t>(3 * wall_count) : 0, 0.0);
   }
   /// Values per wall of wall_contact: rolling spring x, y, z and the JKR flag.
   static constexpr int kWallContactValues = 4;
@@ -110,6 +117,8 @@ enum ParticleFieldFlag : unsigned {
   kContactHistory = 1U << 5U,
   /// Present (non-empty) only when Particles::displacement_tracked.
   kDisplacementField = 1U << 6U,
+  /// Present (non-empty) only when Particles::mesh_contacts (some boundary is a mesh).
+  kMeshHistory = 1U << 7U,
 };
 
 /// Pointer to one array of Particles, of any of the element types the table holds.
@@ -171,6 +180,7 @@ inline constexpr ParticleField kParticleFields[] = {
      -1,
      0,
      Particles::kWallContactValues},
+    {"wall_normal", &Particles::wall_normal, kReordered | kCheckpointed | kPerWall | kMeshHistory},
     {"temperature", &Particles::temperature, kReordered | kCheckpointed | kThermal, "temperature",
      -1, 11},
     {"peak_temperature", &Particles::peak_temperature, kReordered | kCheckpointed | kThermal,
@@ -196,7 +206,8 @@ inline std::size_t values_per_particle(const ParticleField& field, const Particl
 inline bool in_use(const ParticleField& field, const Particles& p) {
   return (!has(field, kThermal) || p.thermal()) &&
          (!has(field, kContactHistory) || p.contact_history) &&
-         (!has(field, kDisplacementField) || p.displacement_tracked);
+         (!has(field, kDisplacementField) || p.displacement_tracked) &&
+         (!has(field, kMeshHistory) || p.mesh_contacts);
 }
 
 /// Consistency of the table, checked at compile time: unique names; a vector's three components

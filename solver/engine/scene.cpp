@@ -82,7 +82,6 @@ Scene build_scene(const Case& description) {
   scene.normal_law = description.normal_law;
   scene.gravity = description.gravity;
   scene.time_step = description.time_step;
-  scene.walls = description.walls;
   double max_radius = 0.0;
   for (const ParticleSpec& spec : description.particles)
     max_radius = std::max(max_radius, spec.radius);
@@ -111,8 +110,23 @@ Scene build_scene(const Case& description) {
   // VTK frames are the displacement's one reader: without them it costs 24 B a particle for
   // nothing.
   scene.particles.displacement_tracked = description.vtk_interval > 0.0;
-  scene.bodies = description.bodies;
-  scene.particles.set_wall_count(static_cast<int>(scene.walls.size() + scene.bodies.size()));
+  scene.boundaries = description.boundaries;
+  int slots = 0;
+  for (Boundary& boundary : scene.boundaries) {
+    scene.first_slot.push_back(slots);
+    int count = 1;
+    if (auto* mesh = std::get_if<MeshShape>(&boundary.shape)) {
+      count = kMeshContactSlots;
+      scene.particles.mesh_contacts = true;
+      // Cells about a particle diameter (plus the JKR reach) wide: a query box then meets at most
+      // 2 x 2 x 2 cells.
+      const double cell = 2.0 * (max_radius + scene.contact_range);
+      mesh->surface = make_mesh_surface(mesh->surface->mesh, cell, mesh->surface->file);
+    }
+    scene.slot_count.push_back(count);
+    slots += count;
+  }
+  scene.particles.set_wall_count(slots);
   std::int64_t next_id = 0;
   for (const ParticleSpec& spec : description.particles) {
     const double density = description.materials[static_cast<std::size_t>(spec.material)].density;

@@ -7,9 +7,8 @@
 #include <optional>
 #include <vector>
 
-#include "geometry/bodies.hpp"
+#include "geometry/boundary.hpp"
 #include "geometry/domain.hpp"
-#include "geometry/walls.hpp"
 #include "solver/engine/particles.hpp"
 #include "solver/models/normal_laws.hpp"
 #include "solver/models/pair.hpp"
@@ -25,10 +24,12 @@ struct Scene {
   NormalLawSpec normal_law;                  ///< the normal-force law and its run-wide parameters
   Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
   double time_step = 0.0;
-  Domain domain;                 ///< cell-grid bounds and periodic axes
-  std::vector<PlaneWall> walls;  ///< static planes (a box container is six)
-  std::vector<Body> bodies;      ///< moving tools (blade, roller), after the walls in every slot
-  double skin = 0.0;             ///< Verlet skin [m]
+  Domain domain;                     ///< cell-grid bounds and periodic axes
+  std::vector<Boundary> boundaries;  ///< walls, container faces, tools and meshes
+  /// Per boundary: its first contact slot in Particles' per-wall arrays and its slot count (one
+  /// for an analytic shape, kMeshContactSlots for a mesh).
+  std::vector<int> first_slot, slot_count;
+  double skin = 0.0;  ///< Verlet skin [m]
   /// How far beyond touching a contact can hold [m]: the largest JKR separation distance, 0
   /// without JKR. Neighbor lists and tool tests reach this much further.
   double contact_range = 0.0;

@@ -31,14 +31,18 @@ Stepper::Stepper(Scene& scene, const StepperState& restored, PairFlag pair_flag)
   // interrupted step, which a fresh evaluation could not reproduce.
   list_.restore(scene_.particles, scene_.domain, list_reach(), restored.list);
   apply_slips(restored.slips);
-  if (restored.bodies.size() != 6 * scene_.bodies.size()) {
-    throw std::invalid_argument("saved state does not match the case's moving bodies");
+  if (restored.boundaries.size() != kBoundaryStateValues * scene_.boundaries.size()) {
+    throw std::invalid_argument("saved state does not match the case's boundaries");
   }
-  for (std::size_t b = 0; b < scene_.bodies.size(); ++b) {
+  for (std::size_t b = 0; b < scene_.boundaries.size(); ++b) {
+    Boundary& boundary = scene_.boundaries[b];
+    const double* saved = &restored.boundaries[kBoundaryStateValues * b];
     for (int a = 0; a < 3; ++a) {
-      scene_.bodies[b].center[a] = restored.bodies[6 * b + static_cast<std::size_t>(a)];
-      scene_.bodies[b].velocity[a] = restored.bodies[6 * b + 3 + static_cast<std::size_t>(a)];
+      boundary.center[a] = saved[a];
+      boundary.velocity[a] = saved[3 + a];
     }
+    boundary.angle = saved[6];
+    boundary.angular_velocity = saved[7];
   }
   contacts_ = restored.contacts;
   time_ = restored.time;
@@ -178,11 +182,7 @@ void Stepper::drift(double dt) {
   const double half_dt = 0.5 * dt;
   const std::size_t n = p.size();
   const bool track_displacement = p.displacement_tracked;
-  // Tools move with the velocity prescribed at the start of the step.
-  for (Body& body : scene_.bodies) {
-    body.velocity = velocity_at(body, time_);
-    body.center += dt * body.velocity;
-  }
+  for (Boundary& boundary : scene_.boundaries) move_boundary(boundary, time_, dt);
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles)
   for (std::size_t i = 0; i < n; ++i) {
     const double kick = half_dt * p.inverse_mass(i);
@@ -330,9 +330,9 @@ std::optional<BlowUpError> Stepper::diagnose_deep_pair(std::ostringstream& messa
   message << "; particle ids " << p.id[i] << " and " << p.id[j];
   for (const std::size_t m : {i, j}) {
     const Eigen::Vector3d centre(p.x[m], p.y[m], p.z[m]);
-    for (const Body& body : scene_.bodies) {
-      if (!surely_apart(body, centre, p.radius[m])) {
-        message << " (id " << p.id[m] << " touched by tool '" << body.name << "')";
+    for (const Boundary& boundary : scene_.boundaries) {
+      if (boundary.motion.moves() && !surely_apart(boundary, centre, p.radius[m])) {
+        message << " (id " << p.id[m] << " touched by tool '" << boundary.name << "')";
         return BlowUpError(message.str(), BlowUpCause::kTool);
       }
     }
@@ -342,24 +342,25 @@ std::optional<BlowUpError> Stepper::diagnose_deep_pair(std::ostringstream& messa
 
 BlowUpError Stepper::diagnose_deep_boundary(std::ostringstream& message) const {
   const Particles& p = scene_.particles;
-  // A particle in a wall or tool: name the tool first, as a tool pressing a particle into a wall
-  // is the likely driver of both overlaps.
+  // A particle in a boundary: name a moving one (a tool) first, as a tool pressing a particle
+  // into a wall is the likely driver of both overlaps.
   for (std::size_t i = 0; i < p.size(); ++i) {
     const double limit = scene_.max_overlap_fraction * p.radius[i];
     const Eigen::Vector3d centre(p.x[i], p.y[i], p.z[i]);
-    const Body* touching_tool = nullptr;
-    for (const Body& body : scene_.bodies) {
-      if (surely_apart(body, centre, p.radius[i])) continue;
-      touching_tool = &body;
-      if (p.radius[i] - nearest_surface(body, centre).gap > limit) {
-        message << "; particle id " << p.id[i] << " in tool '" << body.name << "' (moving at "
-                << body.velocity.norm() << " m/s)";
+    const Boundary* touching_tool = nullptr;
+    for (const Boundary& boundary : scene_.boundaries) {
+      if (!boundary.motion.moves() || surely_apart(boundary, centre, p.radius[i])) continue;
+      touching_tool = &boundary;
+      if (p.radius[i] - nearest_surface(boundary, centre).gap > limit) {
+        message << "; particle id " << p.id[i] << " in tool '" << boundary.name << "' (moving at "
+                << boundary.velocity.norm() << " m/s)";
         return BlowUpError(message.str(), BlowUpCause::kTool);
       }
     }
-    for (const PlaneWall& wall : scene_.walls) {
-      if (p.radius[i] - distance_to(wall, p.x[i], p.y[i], p.z[i]) > limit) {
-        message << "; particle id " << p.id[i] << " in wall '" << wall.name << "'";
+    for (const Boundary& boundary : scene_.boundaries) {
+      if (boundary.motion.moves() || surely_apart(boundary, centre, p.radius[i])) continue;
+      if (p.radius[i] - nearest_surface(boundary, centre).gap > limit) {
+        message << "; particle id " << p.id[i] << " in wall '" << boundary.name << "'";
         if (touching_tool == nullptr) return BlowUpError(message.str());
         message << ", pressed by tool '" << touching_tool->name << "'";
         return BlowUpError(message.str(), BlowUpCause::kTool);
@@ -380,22 +381,26 @@ StepperState Stepper::save_state() const {
   state.bonds_broken = bonds_broken_;
   state.laser_energy = laser_energy_;
   state.laser_missed = laser_missed_;
-  for (const Body& body : scene_.bodies) {
-    for (int a = 0; a < 3; ++a) state.bodies.push_back(body.center[a]);
-    for (int a = 0; a < 3; ++a) state.bodies.push_back(body.velocity[a]);
+  for (const Boundary& boundary : scene_.boundaries) {
+    for (int a = 0; a < 3; ++a) state.boundaries.push_back(boundary.center[a]);
+    for (int a = 0; a < 3; ++a) state.boundaries.push_back(boundary.velocity[a]);
+    state.boundaries.push_back(boundary.angle);
+    state.boundaries.push_back(boundary.angular_velocity);
   }
   return state;
 }
 
-std::vector<Eigen::Vector3d> Stepper::wall_forces() const {
-  const std::size_t walls = scene_.walls.size() + scene_.bodies.size();
-  std::vector<Eigen::Vector3d> totals(walls, Eigen::Vector3d::Zero());
-  if (walls == 0 || wall_forces_.size() % (walls * 3) != 0) return totals;  // not evaluated
+std::vector<BoundaryLoad> Stepper::boundary_loads() const {
+  const std::size_t boundaries = scene_.boundaries.size();
+  std::vector<BoundaryLoad> totals(boundaries);
+  const std::size_t stride = boundaries * kBoundaryLoadValues;
+  if (boundaries == 0 || wall_forces_.size() % stride != 0) return totals;  // not evaluated
   // Blocks in index order: the same sum whatever the thread count.
-  for (std::size_t block = 0; block < wall_forces_.size() / (walls * 3); ++block) {
-    for (std::size_t w = 0; w < walls; ++w) {
-      const double* f = &wall_forces_[(block * walls + w) * 3];
-      totals[w] -= Eigen::Vector3d(f[0], f[1], f[2]);  // reaction on the wall
+  for (std::size_t block = 0; block < wall_forces_.size() / stride; ++block) {
+    for (std::size_t b = 0; b < boundaries; ++b) {
+      const double* f = &wall_forces_[block * stride + b * kBoundaryLoadValues];
+      totals[b].force -= Eigen::Vector3d(f[0], f[1], f[2]);  // reaction on the boundary
+      totals[b].moment -= Eigen::Vector3d(f[3], f[4], f[5]);
     }
   }
   return totals;

@@ -47,6 +47,15 @@ struct SlipRecord {
   std::uint8_t joined = 0;
 };
 
+/// The load the particles put on one boundary.
+struct BoundaryLoad {
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();   ///< [N]
+  Eigen::Vector3d moment = Eigen::Vector3d::Zero();  ///< about Boundary::center [N m]
+};
+
+/// Values of one boundary in StepperState::boundaries.
+inline constexpr std::size_t kBoundaryStateValues = 8;
+
 /// Everything besides the particle arrays that a restarted stepper needs to continue bit for bit.
 struct StepperState {
   double time = 0.0;
@@ -54,7 +63,8 @@ struct StepperState {
   ContactSummary contacts;
   NeighborListState list;
   std::vector<SlipRecord> slips;  ///< springs and bond flags of the pairs in contact
-  std::vector<double> bodies;     ///< centre and velocity (6 values) of every moving body
+  /// Pose of every boundary, kBoundaryStateValues each: centre, velocity, angle, angular velocity.
+  std::vector<double> boundaries;
   std::int64_t bonds_formed = 0;  ///< bonds formed so far
   std::int64_t bonds_broken = 0;  ///< bonds lost so far
   double laser_energy = 0.0;      ///< laser energy absorbed by particles so far [J]
@@ -95,9 +105,9 @@ class Stepper {
   const PairForces& pair_forces() const { return pair_forces_; }
   /// Tangential spring elongations, indexed like the neighbor list.
   const PairHistory& pair_history() const { return history_; }
-  /// Load on each wall, then each moving body (minus the force it exerts on the particles), from
-  /// the last force evaluation, summed in index order.
-  std::vector<Eigen::Vector3d> wall_forces() const;
+  /// Load on each boundary (minus what it exerts on the particles): force, and moment about its
+  /// reference point, from the last force evaluation, summed in particle index order.
+  std::vector<BoundaryLoad> boundary_loads() const;
   /// Kinetic energy of translation, summed in index order [J].
   double kinetic_energy() const;
   /// Kinetic energy of rotation, summed in index order [J].
@@ -146,7 +156,7 @@ class Stepper {
   NeighborList list_;
   PairForces pair_forces_;
   PairHistory history_;
-  std::vector<double> wall_forces_;  ///< per block of particles and wall, last evaluation
+  std::vector<double> wall_forces_;  ///< per block of particles and boundary, last evaluation
   ContactSummary contacts_;
   double time_ = 0.0;
   std::int64_t step_count_ = 0;

@@ -126,10 +126,12 @@ std::vector<std::string> time_step_warnings(const PairReport& report, double tim
   return warnings;
 }
 
-double tool_surface_speed(const Body& tool) {
-  const double rim = spin_speed(tool);
+double tool_surface_speed(const Boundary& tool) {
+  const double rim = rotation_speed(tool);
   double fastest = 0.0;
-  for (const MotionKey& key : tool.motion) fastest = std::max(fastest, key.velocity.stableNorm());
+  for (const MotionKey& key : tool.motion.keys) {
+    fastest = std::max(fastest, key.velocity.stableNorm());
+  }
   return fastest + rim;
 }
 
@@ -163,7 +165,7 @@ void require_physical_speeds(const Case& c) {
              speed);
     }
   }
-  for (const Body& tool : c.bodies) {
+  for (const Boundary& tool : c.boundaries) {
     const double speed = tool_surface_speed(tool);
     if (!(speed <= kSpeedOfLight)) refuse("tool '" + tool.name + "' (motion or spin)", speed);
   }
@@ -182,7 +184,9 @@ double reference_impact_speed(const Case& c) {
   const double fastest =
       c.particles.empty() ? 0.0 : c.particles[fastest_particle(c)].velocity.stableNorm();
   double speed = 2.0 * fastest;
-  for (const Body& tool : c.bodies) speed = std::max(speed, 2.0 * tool_surface_speed(tool));
+  for (const Boundary& tool : c.boundaries) {
+    speed = std::max(speed, 2.0 * tool_surface_speed(tool));
+  }
   const double g = c.gravity.norm();
   if (g > 0.0 && !c.particles.empty()) {
     Eigen::Vector3d lo = c.particles.front().position;
@@ -251,8 +255,11 @@ TimeStepLimit case_time_step_bound(const Case& c) {
                   what);
     }
   };
-  for (const PlaneWall& wall : c.walls) surface(wall.material, "wall '" + wall.name + "'");
-  for (const Body& tool : c.bodies) {
+  for (const Boundary& tool : c.boundaries) {
+    if (!tool.motion.moves()) {
+      surface(tool.material, "wall '" + tool.name + "'");
+      continue;
+    }
     surface(tool.material, "tool '" + tool.name + "'");
     const double tool_speed = tool_surface_speed(tool);
     if (tool_speed > 0.0 && std::isfinite(smallest_radius)) {

@@ -92,7 +92,7 @@ std::vector<std::string> time_step_warnings(const PairReport& report, double tim
 
 /// Fastest speed of a tool's surface over its motion keys: translation plus what its shape's
 /// spin adds (a roller's spin times its radius) [m/s].
-double tool_surface_speed(const Body& tool);
+double tool_surface_speed(const Boundary& tool);
 
 /// Fastest impact a case can produce: twice its fastest initial particle, twice its fastest tool
 /// surface (a struck particle leaves at up to twice the tool's speed), or a fall across the

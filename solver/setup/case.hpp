@@ -8,10 +8,9 @@
 #include <string>
 #include <vector>
 
-#include "geometry/bodies.hpp"
+#include "geometry/boundary.hpp"
 #include "geometry/box.hpp"
 #include "geometry/domain.hpp"
-#include "geometry/walls.hpp"
 #include "solver/analysis/layer_metrics.hpp"
 #include "solver/engine/laser.hpp"
 #include "solver/models/bond_law.hpp"
@@ -112,8 +111,9 @@ struct Case {
   Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
   std::vector<ParticleSpec> particles;  ///< explicit ones first, then each insertion in order
   std::optional<Domain> domain;  ///< absent: the particles' bounding box, padded, not periodic
-  std::vector<PlaneWall> walls;
-  std::vector<Body> bodies;   ///< moving tools: blades, rollers, spheres
+  /// Walls, container faces, tools and meshes, in the order of the case file's `walls:` list (a
+  /// box container adds its faces in place).
+  std::vector<Boundary> boundaries;
   double skin = 0.0;          ///< Verlet skin [m]; 0 picks 0.2 x the largest radius
   int reorder_interval = 20;  ///< neighbor-list builds between reorderings by cell (0: never)
   double max_overlap_fraction = 0.25;  ///< overlap / smaller radius that stops a run (blow-up)

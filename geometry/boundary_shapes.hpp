@@ -1,28 +1,32 @@
 #pragma once
-/// @file tool_shapes.hpp
-/// The shapes of moving tools, each a small struct in the tool's own frame: positions are taken
-/// relative to the tool's reference point (Body::center, the point its motion carries). Every
-/// shape gives the same five things, which is all the kernel, the VTK writer and the time-step
-/// limit ask of it:
+/// @file boundary_shapes.hpp
+/// The shapes of boundaries, each a small struct in the boundary's own frame: positions are taken
+/// relative to the boundary's reference point (Boundary::center, the point its motion carries and
+/// its rotation turns about) and in its unrotated orientation. Every analytic shape gives the same
+/// four things, which is all the kernel, the VTK writer and the time-step limit ask of it:
 ///   - nearest(w): the signed gap and outward normal of the surface nearest to a sphere centre;
 ///   - surely_apart(w, r): a cheap test, true exactly when nearest(w).gap >= r (up to rounding);
-///   - surface_velocity(w, v): the velocity of the surface material at w, the tool translating at
-///   v;
-///   - spin_speed(): the fastest surface speed its own rotation adds [m/s];
+///   - rotation_reach(): the farthest surface point from the reference point [m] (infinite for an
+///     unbounded shape), which bounds the surface speed a rotation adds;
 ///   - outline(center, domain): its surface as polygons for VTK;
-/// and lists its parameters (parameters(f)) for the case fingerprint.
-/// To add a shape, write its struct here and add it to ToolShape; then give it one reader entry
-/// (CONTRIBUTING.md, "Add a boundary shape").
+/// and lists its parameters (parameters(f)) for the case fingerprint. A triangle mesh
+/// (MeshShape) gives several contacts instead of one nearest point: see triangle_mesh.hpp.
+/// To add a shape, write its struct here and add it to BoundaryShapes; then give it one reader
+/// entry (CONTRIBUTING.md, "Add a boundary shape").
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <memory>
 #include <numbers>
+#include <string>
 #include <variant>
 #include <vector>
 
 #include "geometry/domain.hpp"
+#include "geometry/triangle_mesh.hpp"
 
 namespace bondem {
 
@@ -73,11 +77,8 @@ struct BoxShape {
     const Eigen::Vector3d clamped = w.cwiseMax(-half_size).cwiseMin(half_size);
     return (w - clamped).squaredNorm() >= r * r;
   }
-  /// A box does not spin: its surface moves with the tool.
-  Eigen::Vector3d surface_velocity(const Eigen::Vector3d& /*w*/, const Eigen::Vector3d& v) const {
-    return v;
-  }
-  double spin_speed() const { return 0.0; }
+  /// Its corners.
+  double rotation_reach() const { return half_size.norm(); }
   /// The six faces, x_min, x_max, y_min, y_max, z_min, z_max.
   Outline outline(const Eigen::Vector3d& center, const Domain& /*domain*/) const {
     const Eigen::Vector3d lo = center - half_size;
@@ -101,11 +102,10 @@ struct BoxShape {
 };
 
 /// An infinite cylinder (case-file type `roller`) whose axis passes through the reference point;
-/// it may spin about its axis.
+/// it may rotate about that axis only (the reader refuses any other rotation).
 struct CylinderShape {
   Eigen::Vector3d axis = Eigen::Vector3d::UnitY();  ///< unit
   double radius = 0.0;                              ///< [m]
-  double spin = 0.0;  ///< angular velocity about the axis [rad/s], right-handed
 
   /// Nearest point on the mantle: radial from the axis (any direction for a centre on the axis).
   SurfacePoint nearest(const Eigen::Vector3d& w) const {
@@ -119,12 +119,8 @@ struct CylinderShape {
     const double reach = radius + r;
     return (w - w.dot(axis) * axis).squaredNorm() >= reach * reach;
   }
-  /// Translation plus the spin's rim velocity.
-  Eigen::Vector3d surface_velocity(const Eigen::Vector3d& w, const Eigen::Vector3d& v) const {
-    if (spin == 0.0) return v;
-    return v + (spin * axis).cross(w);
-  }
-  double spin_speed() const { return std::abs(spin) * radius; }
+  /// Its mantle, for a rotation about its own axis.
+  double rotation_reach() const { return radius; }
   /// A 32-sided prism whose length spans the domain along the axis.
   Outline outline(const Eigen::Vector3d& center, const Domain& domain) const {
     const Eigen::Vector3d a = axis.normalized();
@@ -156,7 +152,6 @@ struct CylinderShape {
   void parameters(F&& f) const {
     f("axis", axis);
     f("radius", radius);
-    f("spin", spin);
   }
 };
 
@@ -176,10 +171,7 @@ struct SphereShape {
     const double reach = radius + r;
     return w.squaredNorm() >= reach * reach;
   }
-  Eigen::Vector3d surface_velocity(const Eigen::Vector3d& /*w*/, const Eigen::Vector3d& v) const {
-    return v;
-  }
-  double spin_speed() const { return 0.0; }
+  double rotation_reach() const { return radius; }
   /// 16 meridians by 8 bands: triangles at the poles (z), quadrilaterals between.
   Outline outline(const Eigen::Vector3d& center, const Domain& /*domain*/) const {
     constexpr int kMeridians = 16;
@@ -211,8 +203,75 @@ struct SphereShape {
   }
 };
 
-/// Every tool shape. The order is the shape's number in the case fingerprint: append, never
+/// An infinite plane (case-file type `plane`, and the six faces of a `box` container) through the
+/// reference point; particles live on the side its normal points to.
+struct PlaneShape {
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  ///< unit, into the domain
+
+  /// Signed distance along the normal, written out term by term: one summation order, the same
+  /// as the walls' before boundaries were one kind.
+  SurfacePoint nearest(const Eigen::Vector3d& w) const {
+    return {w.x() * normal.x() + w.y() * normal.y() + w.z() * normal.z(), normal};
+  }
+  bool surely_apart(const Eigen::Vector3d& w, double r) const { return nearest(w).gap >= r; }
+  /// Unbounded: a plane may only translate (the reader refuses a rotation).
+  double rotation_reach() const { return std::numeric_limits<double>::infinity(); }
+  /// A plane is drawn by the VTK writer's wall file (clipped to the domain), not as an outline.
+  Outline outline(const Eigen::Vector3d& /*center*/, const Domain& /*domain*/) const { return {}; }
+  template <class F>
+  void parameters(F&& f) const {
+    f("normal", normal);
+  }
+};
+
+/// A triangle surface with its cell grid, in the boundary's frame, built once and shared by the
+/// copies of a case and its scene (it never changes: motion moves the frame, not the vertices).
+struct MeshSurface {
+  TriangleMesh mesh;
+  TriangleGrid grid;
+  Eigen::Vector3d box_min = Eigen::Vector3d::Zero();  ///< bounding box of the vertices
+  Eigen::Vector3d box_max = Eigen::Vector3d::Zero();
+  double reach = 0.0;    ///< farthest vertex from the reference point [m]
+  std::string file;      ///< where it was read from (for reports)
+  std::string checksum;  ///< FNV-1a of the vertices and triangles, hex (case fingerprint)
+};
+
+/// Build a MeshSurface from @p mesh (normals filled, in the boundary frame) with grid cells of
+/// about @p cell_size [m].
+std::shared_ptr<const MeshSurface> make_mesh_surface(TriangleMesh mesh, double cell_size,
+                                                     std::string file);
+
+/// A triangle mesh (case-file type `mesh`, from an STL file). Two-sided: a sphere is pushed away
+/// from the nearest surface on whichever side it is, so the facets' winding does not matter.
+struct MeshShape {
+  std::shared_ptr<const MeshSurface> surface;
+
+  /// Whether a sphere (centre @p w, radius @p r) misses the mesh's bounding box.
+  bool surely_apart(const Eigen::Vector3d& w, double r) const {
+    const Eigen::Vector3d below = (surface->box_min - w).cwiseMax(0.0);
+    const Eigen::Vector3d above = (w - surface->box_max).cwiseMax(0.0);
+    return (below + above).squaredNorm() >= r * r;
+  }
+  double rotation_reach() const { return surface->reach; }
+  /// Its triangles at the pose (center, rotation).
+  Outline outline(const Eigen::Vector3d& center, const Eigen::Matrix3d& rotation) const {
+    Outline out;
+    out.points.reserve(surface->mesh.vertices.size());
+    for (const Eigen::Vector3d& v : surface->mesh.vertices)
+      out.points.push_back(center + rotation * v);
+    for (const auto& t : surface->mesh.triangles) out.polygons.push_back({t[0], t[1], t[2]});
+    return out;
+  }
+  template <class F>
+  void parameters(F&& f) const {
+    f("file", std::string_view(surface->file));
+    f("triangles", static_cast<int>(surface->mesh.triangles.size()));
+    f("checksum", std::string_view(surface->checksum));
+  }
+};
+
+/// Every boundary shape. The order is the shape's number in the case fingerprint: append, never
 /// reorder.
-using ToolShapes = std::variant<BoxShape, CylinderShape, SphereShape>;
+using BoundaryShapes = std::variant<BoxShape, CylinderShape, SphereShape, PlaneShape, MeshShape>;
 
 }  // namespace bondem
