@@ -248,6 +248,19 @@ inline Boundary plane_boundary(const Eigen::Vector3d& point, const Eigen::Vector
   return plane;
 }
 
+/// A static mesh boundary: @p mesh with its vertices in world coordinates, carried and turned
+/// about @p center.
+inline Boundary mesh_boundary(TriangleMesh mesh, const Eigen::Vector3d& center, int material,
+                              std::string name) {
+  for (Eigen::Vector3d& v : mesh.vertices) v -= center;
+  Boundary boundary;
+  boundary.shape = MeshShape{make_mesh_surface(std::move(mesh), 0.0, name)};
+  boundary.center = center;
+  boundary.material = material;
+  boundary.name = std::move(name);
+  return boundary;
+}
+
 /// A plane boundary's current point and world normal (for VTK and reports).
 struct PlaneWall {
   Eigen::Vector3d point = Eigen::Vector3d::Zero();

@@ -1,5 +1,6 @@
 #include "geometry/boundary_shapes.hpp"
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
@@ -42,6 +43,16 @@ std::shared_ptr<const MeshSurface> make_mesh_surface(TriangleMesh mesh, double c
   char text[17];
   std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(hash));
   surface->checksum = text;
+  if (!(cell_size > 0.0)) {
+    // No particle size to go by: cells of the longest edge.
+    for (const auto& t : mesh.triangles) {
+      for (int k = 0; k < 3; ++k) {
+        cell_size = std::max(cell_size, (mesh.vertices[static_cast<std::size_t>(t[k])] -
+                                         mesh.vertices[static_cast<std::size_t>(t[(k + 1) % 3])])
+                                            .norm());
+      }
+    }
+  }
   surface->grid = build_triangle_grid(mesh, cell_size);
   surface->mesh = std::move(mesh);
   surface->file = std::move(file);

@@ -236,8 +236,8 @@ struct MeshSurface {
   std::string checksum;  ///< FNV-1a of the vertices and triangles, hex (case fingerprint)
 };
 
-/// Build a MeshSurface from @p mesh (normals filled, in the boundary frame) with grid cells of
-/// about @p cell_size [m].
+/// Build a MeshSurface from @p mesh (in the boundary frame; normals are computed) with grid cells
+/// of about @p cell_size [m], or of its longest edge when @p cell_size is 0.
 std::shared_ptr<const MeshSurface> make_mesh_surface(TriangleMesh mesh, double cell_size,
                                                      std::string file);
 

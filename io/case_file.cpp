@@ -471,17 +471,9 @@ PlacedShape read_mesh(const Reader& reader, const YAML::Node& node, const std::s
   }
   // Vertices relative to the reference point: the boundary frame.
   for (Eigen::Vector3d& v : stl.mesh.vertices) v -= center;
-  // The grid is rebuilt for the particles' size by build_scene; here cells of the mesh's own
-  // scale serve the reader's overlap checks.
-  double longest = 0.0;
-  for (const auto& t : stl.mesh.triangles) {
-    for (int k = 0; k < 3; ++k) {
-      longest = std::max(longest, (stl.mesh.vertices[static_cast<std::size_t>(t[k])] -
-                                   stl.mesh.vertices[static_cast<std::size_t>(t[(k + 1) % 3])])
-                                      .norm());
-    }
-  }
-  return {MeshShape{make_mesh_surface(std::move(stl.mesh), longest, file.string())}, center};
+  // Cells of the mesh's own scale serve the reader's overlap checks; build_scene rebuilds the
+  // grid for the particles' size.
+  return {MeshShape{make_mesh_surface(std::move(stl.mesh), 0.0, file.string())}, center};
 }
 
 /// One entry per boundary shape: its case-file type, its own keys (besides type, material,
