@@ -32,6 +32,24 @@ void BM_Step_Friction(benchmark::State& state) {
   run_steps(state, true);
 }
 
+/// A step of the frictional lattice on a floor that is a plane or a 100 352-triangle mesh of the
+/// same plane: what a mesh costs over an analytic boundary in the same packing (issue 15 target:
+/// at most 1.5x). Run both interleaved: --benchmark_filter=Floor
+/// --benchmark_repetitions=10 --benchmark_enable_random_interleaving=true.
+void floor_steps(benchmark::State& state, bench::Floor floor) {
+  Scene scene = lattice_scene(static_cast<int>(state.range(0)), 13, true, floor);
+  Stepper stepper(scene);
+  for (auto _ : state) stepper.step();
+  state.counters["particles"] = static_cast<double>(scene.particles.size());
+  state.counters["wall_contacts"] = static_cast<double>(stepper.contacts().wall_contacts);
+}
+void BM_Step_FloorPlane(benchmark::State& state) {
+  floor_steps(state, bench::Floor::kPlane);
+}
+void BM_Step_FloorMesh(benchmark::State& state) {
+  floor_steps(state, bench::Floor::kMesh);
+}
+
 void BM_NeighborBuild(benchmark::State& state) {
   Scene scene = lattice_scene(static_cast<int>(state.range(0)), 13, false);
   NeighborList list;
@@ -48,5 +66,7 @@ void BM_NeighborBuild(benchmark::State& state) {
 // 10 x 10 x 13 = 1300 particles up to the peers' 40 x 40 x 13 = 20 800.
 BENCHMARK(BM_Step_Frictionless)->Arg(10)->Arg(20)->Arg(40)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Step_Friction)->Arg(10)->Arg(20)->Arg(40)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Step_FloorPlane)->Arg(20)->Arg(40)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Step_FloorMesh)->Arg(20)->Arg(40)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_NeighborBuild)->Arg(10)->Arg(40)->Unit(benchmark::kMillisecond);
 BENCHMARK_MAIN();

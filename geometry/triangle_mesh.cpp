@@ -180,9 +180,12 @@ void query_triangles(const TriangleGrid& grid, const Eigen::Vector3d& centre, do
           if (x != std::max(lo[0], f[0]) || y != std::max(lo[1], f[1]) ||
               z != std::max(lo[2], f[2]))
             continue;
-          if ((grid.box_min[t].array() > qmax.array()).any() ||
-              (grid.box_max[t].array() < qmin.array()).any())
-            continue;
+          // The sphere, not its box, against the triangle's box: on a finely tessellated
+          // surface this leaves the few triangles under the sphere out of the dozens its box
+          // meets, before any closest-point test.
+          const Eigen::Vector3d outside =
+              (grid.box_min[t] - centre).cwiseMax(centre - grid.box_max[t]).cwiseMax(0.0);
+          if (outside.squaredNorm() >= radius * radius) continue;
           out.push_back(t);
         }
       }
@@ -195,12 +198,24 @@ std::span<const MeshContact> mesh_contacts(const TriangleMesh& mesh, const Trian
                                            MeshQueryBuffer& buffer) {
   buffer.triangles.clear();
   query_triangles(grid, centre, radius, buffer.triangles);
-  // Candidates come in cell order; resolve_contacts sorts them by a total order (rank, gap,
-  // triangle), which makes the result independent of the grid.
+  return mesh_contacts_among(mesh, grid, buffer.triangles, centre, radius, buffer);
+}
+
+std::span<const MeshContact> mesh_contacts_among(const TriangleMesh& mesh, const TriangleGrid& grid,
+                                                 std::span<const std::int32_t> triangles,
+                                                 const Eigen::Vector3d& centre, double radius,
+                                                 MeshQueryBuffer& buffer) {
+  // Candidates come in the caller's order; resolve_contacts sorts them by a total order (rank,
+  // gap, triangle), which makes the result independent of it and of extra triangles.
   buffer.candidates.clear();
   MeshContact contact;
-  for (const std::int32_t t : buffer.triangles)
+  for (const std::int32_t t : triangles) {
+    // Out of reach of the triangle's box: no closest point to compute (most of a list).
+    const Eigen::Vector3d outside =
+        (grid.box_min[t] - centre).cwiseMax(centre - grid.box_max[t]).cwiseMax(0.0);
+    if (outside.squaredNorm() >= radius * radius) continue;
     if (triangle_contact(mesh, t, centre, radius, contact)) buffer.candidates.push_back(contact);
+  }
   resolve_contacts(radius, buffer);
   return buffer.contacts;
 }

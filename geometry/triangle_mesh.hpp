@@ -135,8 +135,8 @@ struct TriangleGrid {
 /// cells is capped (about 2^21) by enlarging the cells.
 TriangleGrid build_triangle_grid(const TriangleMesh& mesh, double cell_size);
 
-/// Append to @p out, once each and in no particular order, the triangles whose bounding box meets
-/// the axis-aligned box of the sphere (@p centre, @p radius). @p out is the caller's buffer.
+/// Append to @p out, once each and in no particular order, the triangles whose bounding box the
+/// sphere (@p centre, @p radius) reaches into. @p out is the caller's buffer.
 void query_triangles(const TriangleGrid& grid, const Eigen::Vector3d& centre, double radius,
                      std::vector<std::int32_t>& out);
 
@@ -169,6 +169,16 @@ inline constexpr double kMeshContactTolerance = 1.0e-9;
 std::span<const MeshContact> mesh_contacts(const TriangleMesh& mesh, const TriangleGrid& grid,
                                            const Eigen::Vector3d& centre, double radius,
                                            MeshQueryBuffer& buffer);
+
+/// The same among @p triangles only (any order, repeats allowed; @p grid gives their boxes): equal
+/// to mesh_contacts whenever
+/// @p triangles holds every triangle nearer to @p centre than @p radius, e.g. a list gathered
+/// with a larger radius a few steps before (MeshCandidates). @p triangles may be a view of
+/// buffer.triangles.
+std::span<const MeshContact> mesh_contacts_among(const TriangleMesh& mesh, const TriangleGrid& grid,
+                                                 std::span<const std::int32_t> triangles,
+                                                 const Eigen::Vector3d& centre, double radius,
+                                                 MeshQueryBuffer& buffer);
 
 /// The same without the grid: every triangle is tested (the oracle for the grid in tests).
 std::span<const MeshContact> mesh_contacts_brute_force(const TriangleMesh& mesh,

@@ -281,7 +281,7 @@ TEST(TriangleMesh, TessellatedPlaneAlwaysOneContact) {
 TEST(TriangleMesh, GridQueriesEqualBruteForce) {
   // The same contacts (triangle, region, bitwise point and normal) for random spheres, with
   // cells smaller than, about equal to and larger than the triangles; the triangle lists hold
-  // every triangle whose box meets the sphere's box, once.
+  // every triangle whose box the sphere reaches into, once.
   TriangleMesh mesh = uv_sphere(32, 16);
   for (Vector3d& v : mesh.vertices)
     v = Vector3d(1.5 * v.x(), v.y(), 0.7 * v.z()) + Vector3d(3, -2, 1);
@@ -314,8 +314,8 @@ TEST(TriangleMesh, GridQueriesEqualBruteForce) {
       std::sort(listed.begin(), listed.end());
       std::vector<std::int32_t> expected;
       for (std::int32_t t = 0; t < static_cast<std::int32_t>(mesh.triangles.size()); ++t)
-        if ((grid.box_min[t].array() <= centre.array() + radius).all() &&
-            (grid.box_max[t].array() >= centre.array() - radius).all())
+        if ((centre - centre.cwiseMax(grid.box_min[t]).cwiseMin(grid.box_max[t])).squaredNorm() <
+            radius * radius)
           expected.push_back(t);
       ASSERT_EQ(listed, expected) << "cell " << cell;
     }

@@ -23,6 +23,7 @@
 
 #include "geometry/boundary.hpp"
 #include "geometry/triangle_mesh.hpp"
+#include "solver/engine/mesh_candidates.hpp"
 #include "solver/engine/neighbor_list.hpp"
 #include "solver/engine/scene.hpp"
 #include "solver/models/contact_laws.hpp"
@@ -443,11 +444,11 @@ BoundaryContact analytic_boundary_contact(Particles& p, const Scene& scene, cons
 /// The contacts of particle i with mesh boundary @p b, each passed to @p add (a BoundaryContact),
 /// in the double-contact rule's order. Each contact takes the slot whose last normal (boundary
 /// frame) is nearest its own within kSameMeshContactCosine, else a free slot with fresh history;
-/// slots left without a contact are released.
+/// slots left without a contact are released. The search runs among the particle's @p candidates.
 template <bool kFriction, bool kModels, class Law, class Add>
 void mesh_boundary_contacts(Particles& p, const Scene& scene, const Law& law, std::size_t b,
-                            const BoundaryFrame& frame, std::size_t i, MeshQueryBuffer& buffer,
-                            Add&& add) {
+                            const BoundaryFrame& frame, const MeshCandidates& candidates,
+                            std::size_t i, MeshQueryBuffer& buffer, Add&& add) {
   const Boundary& boundary = scene.boundaries[b];
   const MeshSurface& surface = *std::get<MeshShape>(boundary.shape).surface;
   const std::size_t first = static_cast<std::size_t>(scene.first_slot[b]);
@@ -456,16 +457,21 @@ void mesh_boundary_contacts(Particles& p, const Scene& scene, const Law& law, st
   const Eigen::Vector3d centre(p.x[i], p.y[i], p.z[i]);
   const Eigen::Vector3d w = frame.to_body(centre, boundary.center);
   const double reach = p.radius[i] + scene.contact_range;
+  // A slot without a normal holds no history (every contact stores its normal), so freeing it
+  // again would only write zeros over zeros: most particles are far from most meshes.
   const auto release = [&](int s) {
+    if (normals[3 * s] == 0.0 && normals[3 * s + 1] == 0.0 && normals[3 * s + 2] == 0.0) return;
     release_surface<kFriction, kModels>(p, first + static_cast<std::size_t>(s), i);
     normals[3 * s] = normals[3 * s + 1] = normals[3 * s + 2] = 0.0;
   };
-  if (std::get<MeshShape>(boundary.shape).surely_apart(w, reach)) {
+  const std::span<const std::int32_t> near(candidates.triangles.data() + candidates.start[i],
+                                           candidates.start[i + 1] - candidates.start[i]);
+  if (near.empty()) {
     for (int s = 0; s < slots; ++s) release(s);
     return;
   }
   const std::span<const MeshContact> found =
-      mesh_contacts(surface.mesh, surface.grid, w, reach, buffer);
+      mesh_contacts_among(surface.mesh, surface.grid, near, w, reach, buffer);
   const int count = std::min(static_cast<int>(found.size()), slots);
   int slot_of[kMeshContactSlots];
   bool claimed[kMeshContactSlots] = {};
@@ -572,12 +578,10 @@ inline constexpr std::size_t kBoundaryLoadValues = 6;
 /// @p block_load (kBoundaryLoadValues per boundary); boundaries held at a temperature also
 /// conduct heat. @p frames: every boundary's frame at its current pose.
 template <bool kFriction, bool kModels, class Law>
-[[gnu::always_inline]] inline void gather_boundaries(Particles& p, const Scene& scene,
-                                                     const Law& law,
-                                                     const std::vector<BoundaryFrame>& frames,
-                                                     std::size_t i, bool thermal,
-                                                     MeshQueryBuffer& buffer, double* block_load,
-                                                     ParticleLoad& load, BoundaryTally& tally) {
+[[gnu::always_inline]] inline void gather_boundaries(
+    Particles& p, const Scene& scene, const Law& law, const std::vector<BoundaryFrame>& frames,
+    const std::vector<MeshCandidates>& candidates, std::size_t i, bool thermal,
+    MeshQueryBuffer& buffer, double* block_load, ParticleLoad& load, BoundaryTally& tally) {
   for (std::size_t b = 0; b < scene.boundaries.size(); ++b) {
     const Boundary& boundary = scene.boundaries[b];
     double* boundary_load = block_load + b * kBoundaryLoadValues;
@@ -603,7 +607,8 @@ template <bool kFriction, bool kModels, class Law>
       }
     };
     if (std::holds_alternative<MeshShape>(boundary.shape)) {
-      mesh_boundary_contacts<kFriction, kModels>(p, scene, law, b, frames[b], i, buffer, add);
+      mesh_boundary_contacts<kFriction, kModels>(p, scene, law, b, frames[b], candidates[b], i,
+                                                 buffer, add);
     } else {
       const BoundaryContact contact =
           analytic_boundary_contact<kFriction, kModels>(p, scene, law, b, frames[b], i);
@@ -635,8 +640,8 @@ template <bool kFriction, bool kModels, class Law>
 /// compute_pair_forces.
 template <bool kFriction, bool kModels, class Law>
 ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborList& list,
-                             const Law& law, const PairForces& pair_forces,
-                             std::vector<double>& wall_forces) {
+                             const std::vector<MeshCandidates>& mesh_candidates, const Law& law,
+                             const PairForces& pair_forces, std::vector<double>& wall_forces) {
   const std::size_t n = p.size();
   const std::size_t boundaries = scene.boundaries.size();
   const std::size_t blocks = (n + kWallLoadBlock - 1) / kWallLoadBlock;
@@ -662,8 +667,8 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
     for (std::size_t i = block * kWallLoadBlock; i < block_end; ++i) {
       ParticleLoad load{p.mass[i] * g, Eigen::Vector3d::Zero()};
       gather_pairs<kFriction>(p, list, pair_forces, i, thermal, rolling, load);
-      gather_boundaries<kFriction, kModels>(p, scene, law, frames, i, thermal, buffer, block_load,
-                                            load, tally);
+      gather_boundaries<kFriction, kModels>(p, scene, law, frames, mesh_candidates, i, thermal,
+                                            buffer, block_load, load, tally);
       if (thermal) {
         exchange_with_surroundings(p, scene, i, load);
         p.heat_rate[i] = load.heat;

@@ -18,6 +18,7 @@ Stepper::Stepper(Scene& scene, PairFlag pair_flag)
   }
   list_.build(scene_.particles, scene_.domain, list_reach(), scene_.reorder_interval > 0);
   apply_slips({});
+  build_mesh_candidates(scene_, mesh_candidates_);
   compute_forces(std::numeric_limits<double>::quiet_NaN());
   bonds_formed_ = static_cast<std::int64_t>(contacts_.bonds_formed);
 }
@@ -44,6 +45,9 @@ Stepper::Stepper(Scene& scene, const StepperState& restored, PairFlag pair_flag)
     boundary.angle = saved[6];
     boundary.angular_velocity = saved[7];
   }
+  // Gathered afresh: the lists only narrow the search, so where they were gathered does not
+  // change a result (mesh_candidates.hpp).
+  build_mesh_candidates(scene_, mesh_candidates_);
   contacts_ = restored.contacts;
   time_ = restored.time;
   step_count_ = restored.step;
@@ -59,8 +63,8 @@ ContactSummary Stepper::evaluate_forces(const Law& law) {
                                    pair_flag_ ? &pair_flag_ : nullptr};
   ContactSummary pairs = compute_pair_forces<kFriction, kModels>(
       scene_.particles, scene_, list_, law, criterion, pair_forces_, history_);
-  const ContactSummary walls = gather_forces<kFriction, kModels>(scene_.particles, scene_, list_,
-                                                                 law, pair_forces_, wall_forces_);
+  const ContactSummary walls = gather_forces<kFriction, kModels>(
+      scene_.particles, scene_, list_, mesh_candidates_, law, pair_forces_, wall_forces_);
   pairs.wall_contacts = walls.wall_contacts;
   pairs.max_overlap = std::max(pairs.max_overlap, walls.max_overlap);
   pairs.max_overlap_fraction = std::max(pairs.max_overlap_fraction, walls.max_overlap_fraction);
@@ -175,6 +179,7 @@ void Stepper::rebuild_list() {
   std::vector<SlipRecord> slips = collect_slips();
   list_.build(scene_.particles, scene_.domain, list_reach(), reorder);
   apply_slips(std::move(slips));
+  build_mesh_candidates(scene_, mesh_candidates_);
 }
 
 void Stepper::drift(double dt) {
@@ -207,7 +212,11 @@ void Stepper::drift(double dt) {
   // Two particles moving toward each other close the gap by twice the largest displacement:
   // rebuild once that displacement exceeds half the skin.
   const double half_skin = 0.5 * scene_.skin;
-  if (list_.max_displacement_sq(p) > half_skin * half_skin) rebuild_list();
+  if (list_.max_displacement_sq(p) > half_skin * half_skin) {
+    rebuild_list();
+  } else if (mesh_moved_half_skin(scene_, mesh_candidates_)) {
+    build_mesh_candidates(scene_, mesh_candidates_);
+  }
 }
 
 bool Stepper::finish_step(double dt) {

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "solver/engine/contact_kernel.hpp"
+#include "solver/engine/mesh_candidates.hpp"
 #include "solver/engine/neighbor_list.hpp"
 #include "solver/engine/scene.hpp"
 
@@ -157,6 +158,7 @@ class Stepper {
   PairForces pair_forces_;
   PairHistory history_;
   std::vector<double> wall_forces_;  ///< per block of particles and boundary, last evaluation
+  std::vector<MeshCandidates> mesh_candidates_;  ///< per boundary; gathered with every list
   ContactSummary contacts_;
   double time_ = 0.0;
   std::int64_t step_count_ = 0;
