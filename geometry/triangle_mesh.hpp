@@ -39,6 +39,7 @@
 /// so flipped normals do not change a contact.
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <span>
@@ -78,7 +79,8 @@ struct TriangleClosest {
 
 /// Closest point on triangle (@p a, @p b, @p c) to @p p, by the Voronoi-region tests of Ericson,
 /// Real-Time Collision Detection, 5.1.5. Points exactly on a region boundary go to the lower-
-/// dimensional feature (an edge before the face, a vertex before an edge). No allocation.
+/// dimensional feature (an edge before the face, a vertex before an edge). The point has the same
+/// bits for either winding of the triangle. No allocation.
 inline TriangleClosest closest_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
                                            const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
   const Eigen::Vector3d ab = b - a;
@@ -107,13 +109,19 @@ inline TriangleClosest closest_on_triangle(const Eigen::Vector3d& p, const Eigen
   }
   const double va = d3 * d6 - d5 * d4;
   if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
-    const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-    return {b + w * (c - b), TriangleRegion::edge1};
+    // Measured from the lexicographically smaller end, so that the reversed winding (a, c, b),
+    // which computes the same fractions with the ends swapped, gives the same bits.
+    const double sum = (d4 - d3) + (d5 - d6);
+    if (std::lexicographical_compare(b.data(), b.data() + 3, c.data(), c.data() + 3)) {
+      return {b + ((d4 - d3) / sum) * (c - b), TriangleRegion::edge1};
+    }
+    return {c + ((d5 - d6) / sum) * (b - c), TriangleRegion::edge1};
   }
-  const double denom = 1.0 / (va + vb + vc);
+  // Grouped so that the reversed winding, which swaps vb and vc, sums the same bits.
+  const double denom = 1.0 / (va + (vb + vc));
   const double v = vb * denom;
   const double w = vc * denom;
-  return {a + ab * v + ac * w, TriangleRegion::face};
+  return {a + Eigen::Vector3d(ab * v + ac * w), TriangleRegion::face};
 }
 
 /// A uniform cell grid over the triangles' bounding boxes: each cell lists (CSR) the triangles

@@ -552,24 +552,9 @@ TEST(MeshWinding, FlippedNormalsChangeNothing) {
     EXPECT_TRUE(a == b) << "corner: worst v difference " << worst(a.v, b.v);
     EXPECT_EQ(a.contacts.back(), 3U);
   }
-  // The cube's edge x = z = +h is edge 1 (b-c) of both triangles touching it, whose closest point
-  // closest_on_triangle computes from b: reversed, from the other end. The point then differs by
-  // round-off (1e-18 m), the normal by 1e-15, the trajectory as in MeshEdge by far below 1e-12 of
-  // the speed (see the DISABLED_ test below for the bits).
-  const Track a = edge_bounce(false);
-  const Track b = edge_bounce(true);
-  EXPECT_LT(worst(a.v, b.v), 1e-12 * 0.05);
-  EXPECT_LT(worst(a.w, b.w), 1e-12 * 0.05 / kRadius);
-  EXPECT_EQ(a.contacts, b.contacts);
-}
-
-// Known deviation, not fixed here (geometry/ is the lead's): a flipped winding changes a convex
-// edge contact by round-off, not bit for bit. geometry/triangle_mesh.hpp, closest_on_triangle,
-// the edge1 branch `return {b + w * (c - b), TriangleRegion::edge1};` measures from b, which a
-// reversed winding makes the other end of the same edge (edges 0 and 2 both start at a and stay
-// exact). Measured: velocities differ by 1e-17 m/s after the bounce. Computing the edge point
-// from its lower-indexed (or lexicographically smaller) vertex would make it winding-independent.
-TEST(MeshWinding, DISABLED_FlippedNormalsGiveTheSameBitsAtAConvexEdge) {
+  // The cube's edge x = z = +h is edge 1 (b-c) of both triangles touching it, the edge whose
+  // ends a reversed winding swaps: closest_on_triangle measures it from its lexicographically
+  // smaller end for that reason, so this bounce is bit for bit too.
   const Track a = edge_bounce(false);
   const Track b = edge_bounce(true);
   EXPECT_TRUE(a == b) << "edge: worst v difference " << worst(a.v, b.v);
