@@ -538,6 +538,7 @@ Motion read_motion(const Reader& reader, const YAML::Node& node, const std::stri
   const auto* cylinder = std::get_if<CylinderShape>(&shape);
   if (cylinder != nullptr) motion.axis = cylinder->axis;
   YAML::Node axis_node;
+  bool axis_given = false;
   if (const YAML::Node spin = node["spin"]) motion.spin = reader.number(spin, path + ".spin");
   const std::string motion_path = path + ".motion";
   if (const YAML::Node m = node["motion"]) {
@@ -558,7 +559,9 @@ Motion read_motion(const Reader& reader, const YAML::Node& node, const std::stri
                       "unknown interpolation '" + kind + "' (constant or linear)");
         }
       }
-      if ((axis_node = m["axis"])) {
+      if (m["axis"]) {
+        axis_node = m["axis"];
+        axis_given = true;
         motion.axis = reader.vector3(axis_node, motion_path + ".axis");
         if (!(motion.axis.norm() > 0.0)) {
           reader.fail(axis_node, motion_path + ".axis", "must not be zero");
@@ -576,10 +579,10 @@ Motion read_motion(const Reader& reader, const YAML::Node& node, const std::stri
       reader.fail(where, motion_path, "a plane cannot rotate (it is unbounded)");
     }
     if (cylinder != nullptr && motion.axis.cross(cylinder->axis).norm() > 1e-12) {
-      reader.fail(axis_node ? axis_node : where, motion_path + ".axis",
+      reader.fail(axis_given ? axis_node : where, motion_path + ".axis",
                   "a roller can only rotate about its own axis");
     }
-    if (cylinder == nullptr && !axis_node) {
+    if (cylinder == nullptr && !axis_given) {
       reader.fail(where, motion_path,
                   "a rotation needs an axis: give the motion as {keys: [...], axis: [x, y, z]}");
     }

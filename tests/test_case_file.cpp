@@ -2,6 +2,8 @@
 // with a message that names where it is.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <numbers>
 #include <string>
 
 #include "case_text.hpp"
@@ -450,6 +452,70 @@ TEST(CaseFile, LimitsBlockIsRead) {
   EXPECT_DOUBLE_EQ(c.max_overlap_fraction, 0.1);
   EXPECT_NE(error_of(kValid + "limits: {max_overlap_fraction: 2}\n").find("must not exceed 1"),
             std::string::npos);
+}
+
+TEST(CaseFile, BoundaryMotionsAndMeshesAreRead) {
+  // A mesh placed by scale and offset with its own reference point, turning on a linear ramp
+  // about y; a roller whose spin is a constant rotation about its own axis; a platform plane
+  // lowered by a step profile.
+  const std::string text = std::string(R"(materials:
+  m: {density: 1000, youngs_modulus: 1.0e7, poisson_ratio: 0.3}
+contact: {damping_ratio: 0.2}
+bond: {alpha: 1, criterion: never, equilibrium_overlap: 1.0e-6, damping_ratio: 1.0}
+time: {step: 1.0e-6, end: 1.0e-3}
+particles:
+  - {material: m, radius: 1.0e-4, position: [0.0, 0.0, -0.002]}
+walls:
+  - {type: plane, point: [0, 0, -0.0049], normal: [0, 0, 1], material: m, name: platform,
+     motion: [{time: 0.001, velocity: [0, 0, -0.1]}, {time: 0.002}]}
+  - {type: roller, point: [0.02, 0, 0.01], radius: 0.002, spin: -3, material: m}
+  - type: mesh
+    file: )") + BONDEM_CASES_DIR +
+                           R"(/geometry/drum.stl
+    scale: 1.0e-3
+    offset: [0.0, 0.0, 0.001]
+    center: [0.0, 0.0, 0.0]
+    material: m
+    name: drum
+    motion:
+      interpolation: linear
+      axis: [0, 2, 0]
+      keys: [{time: 0.0}, {time: 0.01, angular_velocity: 4.0}]
+)";
+  const Case c = parse_case(text, "case.yaml");
+  ASSERT_EQ(c.boundaries.size(), 3U);
+  const Boundary& platform = c.boundaries[0];
+  ASSERT_EQ(platform.motion.keys.size(), 2U);
+  EXPECT_EQ(platform.motion.keys[0].velocity, Eigen::Vector3d(0, 0, -0.1));
+  EXPECT_EQ(platform.motion.keys[1].velocity, Eigen::Vector3d::Zero());             // default
+  EXPECT_EQ(motion_at(platform.motion, 0.0005).velocity, Eigen::Vector3d::Zero());  // before
+  EXPECT_EQ(motion_at(platform.motion, 0.0015).velocity.z(), -0.1);
+  const Boundary& roller = c.boundaries[1];
+  EXPECT_EQ(roller.motion.spin, -3.0);
+  EXPECT_EQ(roller.motion.axis, Eigen::Vector3d::UnitY());  // the roller's own axis
+  EXPECT_DOUBLE_EQ(rotation_speed(roller), 3.0 * 0.002);
+  const Boundary& drum = c.boundaries[2];
+  ASSERT_TRUE(std::holds_alternative<MeshShape>(drum.shape));
+  EXPECT_EQ(drum.center, Eigen::Vector3d::Zero());
+  EXPECT_EQ(drum.motion.interpolation, MotionInterpolation::kLinear);
+  EXPECT_EQ(drum.motion.axis, Eigen::Vector3d::UnitY());  // normalized
+  // Half-way up the ramp: half the rate; a mesh turns its geometry, a roller does not.
+  EXPECT_DOUBLE_EQ(motion_at(drum.motion, 0.005).angular_velocity, 2.0);
+  EXPECT_TRUE(drum.turns());
+  EXPECT_FALSE(roller.turns());
+  // The drum's vertices in its frame: the file's millimetres scaled, offset 1 mm up, relative to
+  // the reference point; its wall 5 mm from the axis.
+  const MeshSurface& surface = *std::get<MeshShape>(drum.shape).surface;
+  EXPECT_NEAR(surface.box_max.z(), 0.006, 1e-12);
+  EXPECT_NEAR(surface.box_min.z(), -0.004, 1e-12);
+  // 4.5 mm below the drum's centre at z = 1 mm: 0.5 mm from a round wall; the 96-gon's wall lies
+  // between the circle and its chords, up to 5 mm (1 - cos(pi / 96)) inside it, and its normal
+  // within pi / 96 of the radial direction (to the single precision the file stores, 1e-7).
+  const SurfacePoint wall = nearest_surface(drum, Eigen::Vector3d(0.0, 0.0, -0.0035));
+  const double sag = 0.005 * (1.0 - std::cos(std::numbers::pi / 96.0));
+  EXPECT_LE(wall.gap, 0.0005 + 1e-9);
+  EXPECT_GE(wall.gap, 0.0005 - sag - 1e-9);
+  EXPECT_GE(wall.normal.z(), std::cos(std::numbers::pi / 96.0) - 1e-7);
 }
 
 }  // namespace
