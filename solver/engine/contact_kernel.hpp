@@ -411,8 +411,18 @@ BoundaryContact analytic_boundary_contact(Particles& p, const Scene& scene, cons
   const Boundary& boundary = scene.boundaries[b];
   const std::size_t slot = static_cast<std::size_t>(scene.first_slot[b]);
   const Eigen::Vector3d centre(p.x[i], p.y[i], p.z[i]);
-  const Eigen::Vector3d w = frame.to_body(centre, boundary.center);
   BoundaryContact contact;
+  if (const auto* plane = std::get_if<PlaneShape>(&boundary.shape)) {
+    // The common boundary (substrates, container faces) on its own path: a plane does not turn,
+    // and its distance costs less than a dispatch and a frame.
+    const double gap = plane->nearest(centre - boundary.center).gap;
+    contact.overlap = surface_contact<kFriction, kModels>(p, scene, law, boundary.material, slot, i,
+                                                          gap, plane->normal, boundary.velocity,
+                                                          contact.force, contact.torque);
+    contact.point = centre - gap * plane->normal;
+    return contact;
+  }
+  const Eigen::Vector3d w = frame.to_body(centre, boundary.center);
   const SurfacePoint local = std::visit(
       [&](const auto& shape) -> SurfacePoint {
         if constexpr (std::is_same_v<std::decay_t<decltype(shape)>, MeshShape>) {
