@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <regex>
 #include <sstream>
 #include <stdexcept>
@@ -303,6 +304,43 @@ TEST_F(VtkOutput, MovedWallGetsNewFileAndEveryFrameAnEntry) {
   }
   // A frame without contacts is an empty but valid file.
   EXPECT_EQ(read_vtp((root_ / "contacts_000002.vtp").string()).lines, 0u);
+}
+
+TEST_F(VtkOutput, MovingPlaneIsDrawnEveryFrameAndAMeshAtItsPose) {
+  VtkSeriesWriter writer(root_.string());
+  Particles p = make_particles();
+  std::vector<Boundary> boundaries = make_walls();
+  // The floor is a platform with a motion: drawn every frame, even where it has not moved yet.
+  boundaries[0].motion.keys = {{1.0, Eigen::Vector3d(0.0, 0.0, -0.1)}};
+  // A two-triangle square, its reference point at its centre, turned by 30 degrees about z and
+  // carried 1 mm along x.
+  TriangleMesh square;
+  square.vertices = {
+      {0.001, 0.001, 0.002}, {0.003, 0.001, 0.002}, {0.003, 0.003, 0.002}, {0.001, 0.003, 0.002}};
+  square.triangles = {{0, 1, 2}, {0, 2, 3}};
+  const Eigen::Vector3d pivot(0.002, 0.002, 0.002);
+  Boundary mesh = mesh_boundary(square, pivot, 1, "plate");
+  mesh.motion.axis = Eigen::Vector3d::UnitZ();
+  mesh.motion.spin = 1.0;
+  mesh.angle = std::numbers::pi / 6.0;
+  mesh.center = pivot + Eigen::Vector3d(0.001, 0.0, 0.0);
+  boundaries.push_back(mesh);
+  const Domain domain = make_domain();
+  writer.write_frame(0.0, p, {}, boundaries, domain);
+  writer.write_frame(1e-4, p, {}, boundaries, domain);
+  const auto entries = pvd_entries(root_ / "walls.pvd");
+  ASSERT_EQ(entries.size(), 2u);
+  EXPECT_EQ(entries[1].second, "walls_000001.vtp");
+  const VtpContents tools = read_vtp((root_ / "tools_000001.vtp").string());
+  EXPECT_EQ(tools.polys, 2u);
+  ASSERT_EQ(tools.points.size(), 4u);
+  const Eigen::Matrix3d turn =
+      Eigen::AngleAxisd(std::numbers::pi / 6.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  for (std::size_t v = 0; v < 4; ++v) {
+    const Eigen::Vector3d expected = mesh.center + turn * (square.vertices[v] - pivot);
+    EXPECT_LT((tools.points[v] - expected).norm(), 1e-15) << v;
+  }
+  EXPECT_EQ(tools.cell_array("material")->values, std::vector<double>({1.0, 1.0}));
 }
 
 TEST_F(VtkOutput, UncreatableDirectoryThrowsAndLeavesNothing) {
