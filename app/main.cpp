@@ -12,6 +12,8 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <type_traits>
+#include <variant>
 #include <vector>
 
 #include "default_case.hpp"
@@ -101,6 +103,57 @@ void print_cohesion_scales(const bondem::PairCoefficients& pair, double r_star, 
   }
 }
 
+/// One section per boundary: its shape (a mesh with its triangle count and file), material, where
+/// it is at the start (the bounding box of a bounded shape: the check of an STL file's scale and
+/// offset) and its motion.
+void print_boundaries(const Case& c) {
+  for (const bondem::Boundary& boundary : c.boundaries) {
+    std::cout << "[boundary " << boundary.name << "]\n";
+    std::visit(
+        [&](const auto& shape) {
+          using Shape = std::decay_t<decltype(shape)>;
+          Eigen::Vector3d lo = boundary.center;
+          Eigen::Vector3d hi = boundary.center;
+          bool bounded = true;
+          if constexpr (std::is_same_v<Shape, bondem::PlaneShape>) {
+            std::cout << "shape = plane\n";
+            bounded = false;
+          } else if constexpr (std::is_same_v<Shape, bondem::CylinderShape>) {
+            std::cout << "shape = roller\n";
+            bounded = false;
+          } else if constexpr (std::is_same_v<Shape, bondem::BoxShape>) {
+            std::cout << "shape = blade\n";
+            lo -= shape.half_size;
+            hi += shape.half_size;
+          } else if constexpr (std::is_same_v<Shape, bondem::SphereShape>) {
+            std::cout << "shape = sphere\n";
+            lo.array() -= shape.radius;
+            hi.array() += shape.radius;
+          } else {
+            std::cout << "shape = mesh\n";
+            std::cout << "triangles = " << shape.surface->mesh.triangles.size() << "\n";
+            std::cout << "file = " << shape.surface->file << "\n";
+            // At angle 0 the frame is the world's: the box is the file's, placed.
+            lo += shape.surface->box_min;
+            hi += shape.surface->box_max;
+          }
+          if (bounded) {
+            std::cout << "bounding_box = [" << lo.x() << " " << lo.y() << " " << lo.z() << "] .. ["
+                      << hi.x() << " " << hi.y() << " " << hi.z() << "] m\n";
+          }
+        },
+        boundary.shape);
+    std::cout << "material = " << c.materials[static_cast<std::size_t>(boundary.material)].name
+              << "\n";
+    if (boundary.temperature > 0.0) print_quantity("temperature", boundary.temperature, "K");
+    if (boundary.motion.moves()) {
+      print_quantity("max_surface_speed", bondem::tool_surface_speed(boundary), "m/s");
+    } else {
+      std::cout << "motion = fixed\n";
+    }
+  }
+}
+
 int run_info(const std::string& case_path, const std::vector<std::string>& overrides,
              std::optional<double> velocity) {
   const Case c = bondem::load_case(case_path, overrides);
@@ -166,6 +219,7 @@ int run_info(const std::string& case_path, const std::vector<std::string>& overr
       }
     }
   }
+  print_boundaries(c);
   std::cout << "# case time-step limit set by " << limit.cause << "\n";
   print_quantity("case_time_step_limit", limit.step, "s");
   return 0;

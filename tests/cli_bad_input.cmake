@@ -109,14 +109,6 @@ if(run_leftovers)
 endif()
 
 
-# Fails unless `text` contains `expected`.
-function(expect_text text expected what)
-  string(FIND "${text}" "${expected}" found)
-  if(found EQUAL -1)
-    message(FATAL_ERROR "${what}: expected '${expected}' in: ${text}")
-  endif()
-endfunction()
-
 # --set is accepted before the case file by every subcommand (it used to swallow the file).
 expect_success(run --set time.end=1e-6 ${CASES}/paper_5_1.yaml --quiet --output ${WORK}/set_first)
 expect_text("${out}" "steps = 2\n" "run --set first")

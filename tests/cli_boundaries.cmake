@@ -34,6 +34,12 @@ foreach(column load_drum_x load_drum_z moment_drum_y)
   endif()
 endforeach()
 
+# info lists every boundary; a mesh with its triangle count and where it sits (the check of an
+# STL file's scale): the drum's 96-gon spans 5 mm either side of the axis.
+expect_success(info ${WORK}/drum.yaml)
+expect_text("${out}" "[boundary drum]\nshape = mesh\ntriangles = 384\n" "mesh section")
+expect_text("${out}" "bounding_box = [-0.005 -0.001 -0.005] .. [0.005 0.001 0.005] m" "mesh box")
+
 # Bad mesh files: missing, empty, not STL, no facet of any area.
 file(WRITE ${WORK}/geometry/empty.stl "")
 file(WRITE ${WORK}/geometry/text.stl "hello, not a mesh\n")

@@ -28,3 +28,11 @@ function(expect_success)
   set(out "${out_text}" PARENT_SCOPE)
   set(err "${err_text}" PARENT_SCOPE)
 endfunction()
+
+# Fails unless `text` contains `expected`.
+function(expect_text text expected what)
+  string(FIND "${text}" "${expected}" found)
+  if(found EQUAL -1)
+    message(FATAL_ERROR "${what}: expected '${expected}' in: ${text}")
+  endif()
+endfunction()
