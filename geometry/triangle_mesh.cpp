@@ -198,23 +198,38 @@ std::span<const MeshContact> mesh_contacts(const TriangleMesh& mesh, const Trian
                                            MeshQueryBuffer& buffer) {
   buffer.triangles.clear();
   query_triangles(grid, centre, radius, buffer.triangles);
-  return mesh_contacts_among(mesh, grid, buffer.triangles, centre, radius, buffer);
-}
-
-std::span<const MeshContact> mesh_contacts_among(const TriangleMesh& mesh, const TriangleGrid& grid,
-                                                 std::span<const std::int32_t> triangles,
-                                                 const Eigen::Vector3d& centre, double radius,
-                                                 MeshQueryBuffer& buffer) {
-  // Candidates come in the caller's order; resolve_contacts sorts them by a total order (rank,
-  // gap, triangle), which makes the result independent of it and of extra triangles.
+  // Candidates come in cell order; resolve_contacts sorts them by a total order (rank, gap,
+  // triangle), which makes the result independent of the grid.
   buffer.candidates.clear();
   MeshContact contact;
-  for (const std::int32_t t : triangles) {
-    // Out of reach of the triangle's box: no closest point to compute (most of a list).
-    const Eigen::Vector3d outside =
-        (grid.box_min[t] - centre).cwiseMax(centre - grid.box_max[t]).cwiseMax(0.0);
-    if (outside.squaredNorm() >= radius * radius) continue;
+  for (const std::int32_t t : buffer.triangles)
     if (triangle_contact(mesh, t, centre, radius, contact)) buffer.candidates.push_back(contact);
+  resolve_contacts(radius, buffer);
+  return buffer.contacts;
+}
+
+std::span<const MeshContact> mesh_contacts_among(const TriangleMesh& mesh,
+                                                 std::span<const BoxedTriangle> triangles,
+                                                 const Eigen::Vector3d& centre, double radius,
+                                                 MeshQueryBuffer& buffer) {
+  // In the caller's order; resolve_contacts sorts by a total order (rank, gap, triangle), which
+  // makes the result independent of it and of triangles out of reach.
+  buffer.candidates.clear();
+  MeshContact contact;
+  const double r2 = radius * radius;
+  for (const BoxedTriangle& boxed : triangles) {
+    // Out of reach of the triangle's box: no closest point to compute (most of a list).
+    double outside2 = 0.0;
+    for (int axis = 0; axis < 3; ++axis) {
+      const double below = boxed.box_min[axis] - centre[axis];
+      const double above = centre[axis] - boxed.box_max[axis];
+      const double out = std::max(std::max(below, above), 0.0);
+      outside2 += out * out;
+    }
+    if (outside2 >= r2) continue;
+    if (triangle_contact(mesh, boxed.triangle, centre, radius, contact)) {
+      buffer.candidates.push_back(contact);
+    }
   }
   resolve_contacts(radius, buffer);
   return buffer.contacts;

@@ -178,13 +178,19 @@ std::span<const MeshContact> mesh_contacts(const TriangleMesh& mesh, const Trian
                                            const Eigen::Vector3d& centre, double radius,
                                            MeshQueryBuffer& buffer);
 
-/// The same among @p triangles only (any order, repeats allowed; @p grid gives their boxes): equal
-/// to mesh_contacts whenever
+/// A triangle's index with its bounding box, as a Verlet list of triangles stores it: a search
+/// through the list then reads its boxes in order instead of gathering them from the mesh.
+struct BoxedTriangle {
+  double box_min[3];
+  double box_max[3];
+  std::int32_t triangle;
+};
+
+/// The same among @p triangles only (any order, repeats allowed): equal to mesh_contacts whenever
 /// @p triangles holds every triangle nearer to @p centre than @p radius, e.g. a list gathered
-/// with a larger radius a few steps before (MeshCandidates). @p triangles may be a view of
-/// buffer.triangles.
-std::span<const MeshContact> mesh_contacts_among(const TriangleMesh& mesh, const TriangleGrid& grid,
-                                                 std::span<const std::int32_t> triangles,
+/// with a larger radius a few steps before (solver/engine/mesh_candidates.hpp).
+std::span<const MeshContact> mesh_contacts_among(const TriangleMesh& mesh,
+                                                 std::span<const BoxedTriangle> triangles,
                                                  const Eigen::Vector3d& centre, double radius,
                                                  MeshQueryBuffer& buffer);
 

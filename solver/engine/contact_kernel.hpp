@@ -474,14 +474,14 @@ void mesh_boundary_contacts(Particles& p, const Scene& scene, const Law& law, st
     release_surface<kFriction, kModels>(p, first + static_cast<std::size_t>(s), i);
     normals[3 * s] = normals[3 * s + 1] = normals[3 * s + 2] = 0.0;
   };
-  const std::span<const std::int32_t> near(candidates.triangles.data() + candidates.start[i],
-                                           candidates.start[i + 1] - candidates.start[i]);
+  const std::span<const BoxedTriangle> near(candidates.triangles.data() + candidates.start[i],
+                                            candidates.start[i + 1] - candidates.start[i]);
   if (near.empty()) {
     for (int s = 0; s < slots; ++s) release(s);
     return;
   }
   const std::span<const MeshContact> found =
-      mesh_contacts_among(surface.mesh, surface.grid, near, w, reach, buffer);
+      mesh_contacts_among(surface.mesh, near, w, reach, buffer);
   const int count = std::min(static_cast<int>(found.size()), slots);
   int slot_of[kMeshContactSlots];
   bool claimed[kMeshContactSlots] = {};

@@ -62,7 +62,13 @@ void build_mesh_candidates(const Scene& scene, std::vector<MeshCandidates>& cand
             frame.to_body(Eigen::Vector3d(p.x[i], p.y[i], p.z[i]), boundary.center);
         found.clear();
         query_triangles(grid, w, p.radius[i] + margin, found);
-        std::copy(found.begin(), found.end(), list.triangles.begin() + list.start[i]);
+        BoxedTriangle* out = list.triangles.data() + list.start[i];
+        for (const std::int32_t t : found) {
+          const auto ut = static_cast<std::size_t>(t);
+          *out++ = {{grid.box_min[ut].x(), grid.box_min[ut].y(), grid.box_min[ut].z()},
+                    {grid.box_max[ut].x(), grid.box_max[ut].y(), grid.box_max[ut].z()},
+                    t};
+        }
       }
     }
   }

@@ -15,14 +15,15 @@
 #include <cstdint>
 #include <vector>
 
+#include "geometry/triangle_mesh.hpp"
 #include "solver/engine/scene.hpp"
 
 namespace bondem {
 
 /// The candidate triangles of every particle for one mesh boundary (empty for other shapes).
 struct MeshCandidates {
-  std::vector<std::uint32_t> start;     ///< per particle, CSR into triangles (size n + 1)
-  std::vector<std::int32_t> triangles;  ///< in the mesh's own numbering
+  std::vector<std::uint32_t> start;      ///< per particle, CSR into triangles (size n + 1)
+  std::vector<BoxedTriangle> triangles;  ///< in the mesh's own numbering, with their boxes
   Eigen::Vector3d center_at_build = Eigen::Vector3d::Zero();  ///< the mesh's pose when gathered
   double angle_at_build = 0.0;
   /// Farthest from the reference point a particle in reach can be when gathered [m]: the lever
