@@ -419,7 +419,8 @@ BoundaryContact analytic_boundary_contact(Particles& p, const Scene& scene, cons
     contact.overlap = surface_contact<kFriction, kModels>(p, scene, law, boundary.material, slot, i,
                                                           gap, plane->normal, boundary.velocity,
                                                           contact.force, contact.torque);
-    contact.point = centre - gap * plane->normal;
+    // Only a contact needs its point (for the plane's moment).
+    if (contact.overlap > 0.0 || kModels) contact.point = centre - gap * plane->normal;
     return contact;
   }
   const Eigen::Vector3d w = frame.to_body(centre, boundary.center);
