@@ -185,6 +185,24 @@ inline SurfacePoint nearest_surface(const Boundary& boundary, const Eigen::Vecto
       boundary.shape);
 }
 
+/// Whether a sphere of radius @p r centred at @p c overlaps @p boundary (a mesh: some triangle is
+/// nearer than r, found through its grid without a search of the whole mesh).
+inline bool overlaps(const Boundary& boundary, const Eigen::Vector3d& c, double r) {
+  const BoundaryFrame frame = frame_of(boundary);
+  const Eigen::Vector3d w = frame.to_body(c, boundary.center);
+  return std::visit(
+      [&](const auto& shape) {
+        if (shape.surely_apart(w, r)) return false;
+        if constexpr (std::is_same_v<std::decay_t<decltype(shape)>, MeshShape>) {
+          MeshQueryBuffer buffer;
+          return !mesh_contacts(shape.surface->mesh, shape.surface->grid, w, r, buffer).empty();
+        } else {
+          return shape.nearest(w).gap < r;
+        }
+      },
+      boundary.shape);
+}
+
 /// True when a sphere of radius @p r centred at @p c cannot touch @p boundary: decided on squared
 /// distances without a root or a division (for a mesh, against its bounding box).
 inline bool surely_apart(const Boundary& boundary, const Eigen::Vector3d& c, double r) {

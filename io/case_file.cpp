@@ -758,8 +758,7 @@ void check_inside(const Reader& reader, const Case& c, const ParticleSpec& p,
     }
   }
   for (const Boundary& boundary : c.boundaries) {
-    if (!surely_apart(boundary, p.position, p.radius) &&
-        nearest_surface(boundary, p.position).gap < p.radius) {
+    if (overlaps(boundary, p.position, p.radius)) {
       reader.fail(node, path,
                   (is_plane(boundary) ? "overlaps wall '" : "overlaps '") + boundary.name + "'");
     }
