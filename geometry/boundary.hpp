@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cstdint>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -114,7 +115,7 @@ struct Boundary {
   /// surface velocity sees the rotation).
   bool turns() const {
     return motion.rotates() &&
-           (std::holds_alternative<MeshShape>(shape) || std::holds_alternative<BoxShape>(shape));
+           std::visit([](const auto& s) { return s.kTurnsWithRotation; }, shape);
   }
   /// Rotation from the boundary frame to the world at the current angle.
   Eigen::Matrix3d rotation() const {
@@ -127,7 +128,7 @@ inline void move_boundary(Boundary& boundary, double time, double dt) {
   const Motion& motion = boundary.motion;
   if (motion.keys.empty() && motion.spin == 0.0) return;  // fixed
   // A step profile is read at the start of the step, so that it changes exactly at its keys; a
-  // ramp at the middle, whose value is the ramp's exact mean over the step.
+  // ramp at the middle, whose value is the ramp's exact mean over a step within one segment.
   const double at = motion.interpolation == MotionInterpolation::kLinear ? time + 0.5 * dt : time;
   const MotionState state = motion_at(motion, at);
   boundary.velocity = state.velocity;

@@ -9,6 +9,9 @@
 ///   - rotation_reach(): the farthest surface point from the reference point [m] (infinite for an
 ///     unbounded shape), which bounds the surface speed a rotation adds;
 ///   - outline(center, domain): its surface as polygons for VTK;
+///   - kTurnsWithRotation: whether its geometry turns when the boundary rotates (false for a shape
+///     that looks the same at every angle of the rotations it may take: then only its surface
+///     velocity sees the rotation);
 /// and lists its parameters (parameters(f)) for the case fingerprint. A triangle mesh
 /// (MeshShape) gives several contacts instead of one nearest point: see triangle_mesh.hpp.
 /// To add a shape, write its struct here and add it to BoundaryShapes; then give it one reader
@@ -57,6 +60,7 @@ struct Outline {
 /// An axis-aligned box (case-file type `blade`), centred on the reference point.
 struct BoxShape {
   Eigen::Vector3d half_size = Eigen::Vector3d::Zero();  ///< half extents [m]
+  static constexpr bool kTurnsWithRotation = true;
 
   /// Nearest face, edge or corner to centre @p w.
   SurfacePoint nearest(const Eigen::Vector3d& w) const {
@@ -104,8 +108,9 @@ struct BoxShape {
 /// An infinite cylinder (case-file type `roller`) whose axis passes through the reference point;
 /// it may rotate about that axis only (the reader refuses any other rotation).
 struct CylinderShape {
-  Eigen::Vector3d axis = Eigen::Vector3d::UnitY();  ///< unit
-  double radius = 0.0;                              ///< [m]
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitY();   ///< unit
+  double radius = 0.0;                               ///< [m]
+  static constexpr bool kTurnsWithRotation = false;  ///< it turns about its own axis only
 
   /// Nearest point on the mantle: radial from the axis (any direction for a centre on the axis).
   SurfacePoint nearest(const Eigen::Vector3d& w) const {
@@ -158,7 +163,8 @@ struct CylinderShape {
 /// A sphere (case-file type `sphere`) centred on the reference point: an impactor, an indenter or
 /// a rigid obstacle. It does not spin.
 struct SphereShape {
-  double radius = 0.0;  ///< [m]
+  double radius = 0.0;                               ///< [m]
+  static constexpr bool kTurnsWithRotation = false;  ///< about its centre
 
   /// Radial from the centre; a particle centred exactly at the centre leaves along +z.
   SurfacePoint nearest(const Eigen::Vector3d& w) const {
@@ -207,6 +213,7 @@ struct SphereShape {
 /// reference point; particles live on the side its normal points to.
 struct PlaneShape {
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  ///< unit, into the domain
+  static constexpr bool kTurnsWithRotation = false;   ///< it may not rotate
 
   /// Signed distance along the normal, written out term by term: one summation order, the same
   /// as the walls' before boundaries were one kind.
@@ -245,6 +252,7 @@ std::shared_ptr<const MeshSurface> make_mesh_surface(TriangleMesh mesh, double c
 /// from the nearest surface on whichever side it is, so the facets' winding does not matter.
 struct MeshShape {
   std::shared_ptr<const MeshSurface> surface;
+  static constexpr bool kTurnsWithRotation = true;
 
   /// Whether a sphere (centre @p w, radius @p r) misses the mesh's bounding box.
   bool surely_apart(const Eigen::Vector3d& w, double r) const {
