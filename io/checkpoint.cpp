@@ -28,27 +28,42 @@ std::uint64_t fnv1a(const char* data, std::size_t size,
   return hash;
 }
 
+/// Serializes a checkpoint's payload: with a stream, into it (hashing the bytes as they go);
+/// without, only counting them. write_checkpoint runs the same serialization twice, counting then
+/// writing, so the payload is never held in memory.
 class Writer {
  public:
+  explicit Writer(std::ostream* out = nullptr) : out_(out) {}
   template <class T>
   void put(const T& value) {
     static_assert(std::is_trivially_copyable_v<T>);
-    const auto* bytes = reinterpret_cast<const char*>(&value);
-    buffer_.append(bytes, sizeof(T));
+    append(reinterpret_cast<const char*>(&value), sizeof(T));
   }
   template <class T>
   void put(const std::vector<T>& values) {
     put(static_cast<std::uint64_t>(values.size()));
-    buffer_.append(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(T));
+    append(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(T));
   }
   void put(const std::string& text) {
     put(static_cast<std::uint64_t>(text.size()));
-    buffer_.append(text);
+    append(text.data(), text.size());
   }
-  const std::string& bytes() const { return buffer_; }
+  /// Bytes put so far.
+  std::uint64_t size() const { return size_; }
+  /// FNV-1a of the bytes written so far (only with a stream).
+  std::uint64_t checksum() const { return hash_; }
 
  private:
-  std::string buffer_;
+  void append(const char* data, std::size_t size) {
+    size_ += size;
+    if (out_ == nullptr) return;
+    out_->write(data, static_cast<std::streamsize>(size));
+    hash_ = fnv1a(data, size, hash_);
+  }
+
+  std::ostream* out_;
+  std::uint64_t size_ = 0;
+  std::uint64_t hash_ = 0xcbf29ce484222325ULL;
 };
 
 class Reader {
@@ -316,8 +331,10 @@ std::uint64_t case_fingerprint(const Case& c) {
   return t.hash();
 }
 
-void write_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
-  Writer payload;
+namespace {
+
+/// The checkpoint's payload, into @p payload.
+void put_payload(Writer& payload, const CheckpointView& checkpoint) {
   const Particles& p = checkpoint.particles;
   const StepperState& s = checkpoint.stepper;
   payload.put(checkpoint.case_fingerprint);
@@ -365,19 +382,31 @@ void write_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
   payload.put(static_cast<std::uint8_t>(p.mesh_contacts ? 1 : 0));
   if (p.mesh_contacts) put_section(CheckpointSection::kMeshHistory);
   payload.put(checkpoint.history);
+}
 
+}  // namespace
+
+void write_checkpoint(const std::string& path, const CheckpointView& checkpoint) {
+  Writer counter;
+  put_payload(counter, checkpoint);
   AtomicFile file(path, std::ios::binary);
   std::ostream& out = file.stream();
-  const std::string& bytes = payload.bytes();
   out.write(kMagic, sizeof kMagic);
   const std::uint32_t version = kCheckpointVersion;
-  const std::uint64_t size = bytes.size();
-  const std::uint64_t checksum = fnv1a(bytes.data(), bytes.size());
+  const std::uint64_t size = counter.size();
   out.write(reinterpret_cast<const char*>(&version), sizeof version);
   out.write(reinterpret_cast<const char*>(&size), sizeof size);
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  Writer payload(&out);
+  put_payload(payload, checkpoint);
+  if (payload.size() != size) throw std::logic_error("checkpoint: the payload changed its size");
+  const std::uint64_t checksum = payload.checksum();
   out.write(reinterpret_cast<const char*>(&checksum), sizeof checksum);
   file.commit();
+}
+
+void write_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
+  write_checkpoint(path, CheckpointView{checkpoint.case_fingerprint, checkpoint.particles,
+                                        checkpoint.stepper, checkpoint.history});
 }
 
 namespace {

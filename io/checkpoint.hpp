@@ -122,6 +122,19 @@ std::uint64_t case_fingerprint(const Case& description);
 /// FNV-1a checksum. Throws std::runtime_error on I/O failure.
 void write_checkpoint(const std::string& path, const Checkpoint& checkpoint);
 
+/// A checkpoint's content by reference: what a running simulation writes, without copying its
+/// particles.
+struct CheckpointView {
+  std::uint64_t case_fingerprint = 0;
+  const Particles& particles;
+  const StepperState& stepper;
+  const std::string& history;
+};
+
+/// The same from references, streamed: the payload is serialized twice (counted, then written
+/// and hashed) and never held in memory, so a checkpoint of 10^6 particles costs no copy of them.
+void write_checkpoint(const std::string& path, const CheckpointView& checkpoint);
+
 /// Read and verify a checkpoint. Throws CheckpointError naming the file and the problem.
 Checkpoint read_checkpoint(const std::string& path);
 

@@ -133,8 +133,10 @@ void CheckpointFile::finish(const Simulation& simulation) {
 }
 
 void CheckpointFile::write(const Simulation& simulation) const {
-  write_checkpoint(path_, {fingerprint_, simulation.scene().particles,
-                           simulation.stepper().save_state(), history_.text()});
+  // By reference: the particles are streamed to the file, not copied.
+  const StepperState state = simulation.stepper().save_state();
+  write_checkpoint(
+      path_, CheckpointView{fingerprint_, simulation.scene().particles, state, history_.text()});
 }
 
 namespace {
