@@ -426,9 +426,9 @@ std::string measured(const std::optional<double>& value, const bondem::PackingRe
 
 int run_run(const RunCommand& o) {
   set_threads(o.threads);
-  const Case c = o.case_path.empty() ? bondem::parse_case(bondem::kDefaultCase,
-                                                          "<built-in packing case>", o.overrides)
-                                     : bondem::load_case(o.case_path, o.overrides);
+  Case c = o.case_path.empty()
+               ? bondem::parse_case(bondem::kDefaultCase, "<built-in packing case>", o.overrides)
+               : bondem::load_case(o.case_path, o.overrides);
   if (!o.quiet) {
     const int threads = bondem::threads_in_use(c.particles.size());
     std::cerr << "bondem run: " << (o.case_path.empty() ? "built-in packing case" : o.case_path)
@@ -449,8 +449,9 @@ int run_run(const RunCommand& o) {
   options.command_line = o.command_line;
   std::signal(SIGINT, request_stop);
   std::signal(SIGTERM, request_stop);
-  const bondem::RunResult r = bondem::run_case(c, options, std::cerr);
   const std::string directory = o.output.empty() ? c.output_directory : o.output;
+  // Moved: the run frees the case's particle list once the scene holds the particles.
+  const bondem::RunResult r = bondem::run_case(std::move(c), options, std::cerr);
   std::cout << "output_directory = " << directory << "\n"
             << "particles = " << r.particles << "\n"
             << "steps = " << r.steps << "\n"

@@ -418,9 +418,13 @@ RunResult simulate(const Case& description, const RunOptions& options, const Run
 
 }  // namespace
 
-RunResult run_case(const Case& description, const RunOptions& options, std::ostream& log) {
+RunResult run_case(Case description, const RunOptions& options, std::ostream& log) {
   const RunPlan plan = plan_run(description, options);
   Scene scene = build_scene(description);
+  // The case's particle list has become the scene's particles, and the plan holds what was
+  // derived from it (fingerprint, limits): the run does not keep a second copy (72 B a
+  // particle).
+  std::vector<ParticleSpec>().swap(description.particles);
   std::optional<Stepper> stepper;
   std::string history_text;  // of the checkpoint a restart continues
   if (plan.restarting) {

@@ -83,7 +83,8 @@ struct RunResult {
 /// count exceeds kMaxSteps, a restart checkpoint does not fit or ends after time.end, or the
 /// output directory cannot be written; RunInterrupted when stopped on request (after writing the
 /// checkpoint and the final state); BlowUpError (after writing `last_good_state.csv`) when the
-/// physics blows up or a history value is not finite.
-RunResult run_case(const Case& description, const RunOptions& options, std::ostream& log);
+/// physics blows up or a history value is not finite. The case is taken by value: its particle
+/// list is freed once the scene holds the particles (move it in to save the memory).
+RunResult run_case(Case description, const RunOptions& options, std::ostream& log);
 
 }  // namespace bondem
