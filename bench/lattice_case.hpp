@@ -10,23 +10,6 @@ namespace bondem::bench {
 /// The lattice's floor: an analytic plane, or the same plane as a triangle mesh.
 enum class Floor { kPlane, kMesh };
 
-/// A flat square [lo, hi]^2 at z = 0 of cells x cells squares, two triangles each.
-inline TriangleMesh tessellated_square(double lo, double hi, int cells) {
-  TriangleMesh mesh;
-  const double step = (hi - lo) / cells;
-  for (int j = 0; j <= cells; ++j) {
-    for (int i = 0; i <= cells; ++i) mesh.vertices.emplace_back(lo + i * step, lo + j * step, 0.0);
-  }
-  const auto vertex = [&](int i, int j) { return j * (cells + 1) + i; };
-  for (int j = 0; j < cells; ++j) {
-    for (int i = 0; i < cells; ++i) {
-      mesh.triangles.push_back({vertex(i, j), vertex(i + 1, j), vertex(i + 1, j + 1)});
-      mesh.triangles.push_back({vertex(i, j), vertex(i + 1, j + 1), vertex(i, j + 1)});
-    }
-  }
-  return mesh;
-}
-
 /// Triangles of the mesh floor: 2 x 224^2 = 100 352, the 100 000-triangle target.
 inline constexpr int kMeshFloorCells = 224;
 

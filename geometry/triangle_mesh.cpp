@@ -18,6 +18,24 @@ void compute_normals(TriangleMesh& mesh) {
   }
 }
 
+TriangleMesh tessellated_square(double lo, double hi, int n) {
+  TriangleMesh mesh;
+  for (int j = 0; j <= n; ++j) {
+    for (int i = 0; i <= n; ++i) {
+      mesh.vertices.emplace_back(lo + (hi - lo) * i / n, lo + (hi - lo) * j / n, 0.0);
+    }
+  }
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < n; ++i) {
+      const int v = j * (n + 1) + i;
+      mesh.triangles.push_back({v, v + 1, v + n + 2});
+      mesh.triangles.push_back({v, v + n + 2, v + n + 1});
+    }
+  }
+  compute_normals(mesh);
+  return mesh;
+}
+
 namespace {
 
 // Cells of the grid at most; larger meshes get larger cells (memory stays a few megabytes).

@@ -55,6 +55,11 @@ struct TriangleMesh {
   std::vector<Eigen::Vector3d> normals;  ///< filled by compute_normals
 };
 
+/// A flat square plate [lo, hi]^2 at z = 0 of n x n squares, grid line i at lo + (hi - lo) i / n,
+/// each square split along its diagonal (i, j)-(i + 1, j + 1), wound counter-clockwise about +z;
+/// normals filled. A mesh floor, and the test and benchmark surface of many shared edges.
+TriangleMesh tessellated_square(double lo, double hi, int n);
+
 /// Fill mesh.normals from the vertices and the winding. Zero-area triangles get a zero normal
 /// (the STL reader drops them before).
 void compute_normals(TriangleMesh& mesh);

@@ -20,6 +20,29 @@ inline Case soft_case(double xi_con) {
   return c;
 }
 
+/// A row of @p count spheres of radius 1 mm (E = 100 MPa) resting on a frictionless floor plane
+/// named "floor", 2.1 mm apart along x from x = 4 mm, periodic across y, under gravity.
+inline Case row_on_floor(int count, double xi_con, double time_step) {
+  Case c = soft_case(xi_con);
+  c.materials[0].youngs_modulus = 1e8;
+  c.gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
+  for (int k = 0; k < count; ++k) {
+    ParticleSpec p;
+    p.radius = 1e-3;
+    p.position = Eigen::Vector3d(0.004 + 0.0021 * k, 0.005, 1e-3);
+    c.particles.push_back(p);
+  }
+  c.boundaries.push_back(
+      plane_boundary(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 0, "floor"));
+  Domain d;
+  d.min = Eigen::Vector3d(0.0, 0.0, -0.002);
+  d.max = Eigen::Vector3d(0.05, 0.01, 0.01);
+  d.periodic = {false, true, false};
+  c.domain = d;
+  c.time_step = time_step;
+  return c;
+}
+
 /// A random polydisperse gas (radii uniform in [r_min, r_max]) in box [0, L]^3 with random
 /// velocities of magnitude up to @p speed, seeded.
 inline void add_random_gas(Case& c, std::size_t count, double r_min, double r_max, double length,

@@ -41,28 +41,10 @@ TriangleMesh make_mesh(std::vector<Vector3d> vertices, std::vector<std::array<in
   return mesh;
 }
 
-/// Coordinate of grid line @p i of @p n over [lo, hi]: the one expression for vertices and for
-/// particles placed exactly on a line.
+/// Coordinate of grid line @p i of @p n over [lo, hi]: tessellated_square's expression, so that
+/// particles placed on a line sit exactly on its vertices' line.
 double grid_line(double lo, double hi, int n, int i) {
   return lo + (hi - lo) * i / n;
-}
-
-/// The square [lo, hi]^2 at z = 0 as n x n squares, each split along its diagonal
-/// (i, j)-(i + 1, j + 1): the diagonals lie on lines x - y = const.
-TriangleMesh tessellated_floor(int n, double lo, double hi) {
-  std::vector<Vector3d> vertices;
-  std::vector<std::array<int, 3>> triangles;
-  for (int j = 0; j <= n; ++j)
-    for (int i = 0; i <= n; ++i)
-      vertices.emplace_back(grid_line(lo, hi, n, i), grid_line(lo, hi, n, j), 0.0);
-  for (int j = 0; j < n; ++j) {
-    for (int i = 0; i < n; ++i) {
-      const int v = j * (n + 1) + i;
-      triangles.push_back({v, v + 1, v + n + 2});
-      triangles.push_back({v, v + n + 2, v + n + 1});
-    }
-  }
-  return make_mesh(vertices, triangles);
 }
 
 /// The box [lo, hi], 12 triangles wound outward (two per face).
@@ -175,7 +157,7 @@ double worst(const std::vector<Vector3d>& a, const std::vector<Vector3d>& b) {
 TEST(MeshFloor, SphereOnATwoTriangleSquareCarriesItsWeightAsOnAPlane) {
   // The square [-2, 2] mm^2 split along its diagonal y = x; the sphere stands off the diagonal,
   // in one triangle's face region, at the closed-form Hertz overlap under its weight.
-  const TriangleMesh square = tessellated_floor(1, -0.002, 0.002);
+  const TriangleMesh square = tessellated_square(-0.002, 0.002, 1);
   const double w = weight();
   const Vector3d at(0.5e-3, -0.3e-3, kRadius - hertz_overlap(w));
   Case on_plane = one_sphere(at, 0.3, 0.0);
@@ -298,7 +280,7 @@ std::vector<FloorPath> floor_paths() {
 Case floor_case(const FloorPath& path, bool mesh) {
   Case c = one_sphere(path.position, path.friction, path.rolling_friction);
   c.particles[0].velocity = path.velocity;
-  c.boundaries.push_back(mesh ? floor_mesh(tessellated_floor(kSquares, kFloorLo, kFloorHi))
+  c.boundaries.push_back(mesh ? floor_mesh(tessellated_square(kFloorLo, kFloorHi, kSquares))
                               : floor_plane());
   return c;
 }
@@ -359,7 +341,7 @@ TEST(MeshFloor, StaticFrictionHoldsASphereAcrossAVertexWithItsCarriedSpring) {
     const auto incline = [&](const Vector3d& start, bool mesh) {
       Case c = one_sphere(start, mu, 1.0);
       c.gravity = kG * (std::sin(theta) * direction - std::cos(theta) * Vector3d::UnitZ());
-      c.boundaries.push_back(mesh ? floor_mesh(tessellated_floor(kSquares, kFloorLo, kFloorHi))
+      c.boundaries.push_back(mesh ? floor_mesh(tessellated_square(kFloorLo, kFloorHi, kSquares))
                                   : floor_plane());
       return run_track(c, 20000);  // 20 ms: 40 contact periods, the creep has settled
     };
@@ -537,7 +519,7 @@ TEST(MeshWinding, FlippedNormalsChangeNothing) {
     const FloorPath path = floor_paths()[1];  // along the diagonal edges and through vertices
     Case flipped_case = floor_case(path, true);
     flipped_case.boundaries[0] =
-        floor_mesh(flipped(tessellated_floor(kSquares, kFloorLo, kFloorHi)));
+        floor_mesh(flipped(tessellated_square(kFloorLo, kFloorHi, kSquares)));
     const auto spin = [&](Scene& scene) {
       scene.particles.wx[0] = path.spin.x();
       scene.particles.wy[0] = path.spin.y();
@@ -562,34 +544,13 @@ TEST(MeshWinding, FlippedNormalsChangeNothing) {
 
 // --- 6. loads of moving meshes -----------------------------------------------------------------
 
-/// A row of spheres resting on a frictionless floor, periodic across y (as in test_tools.cpp).
-Case row_on_floor(int count, double damping_ratio = 0.3) {
-  Case c = testing::soft_case(damping_ratio);
-  c.materials[0].youngs_modulus = kYoungs;
-  c.gravity = Vector3d(0.0, 0.0, -kG);
-  for (int k = 0; k < count; ++k) {
-    ParticleSpec p;
-    p.radius = kRadius;
-    p.position = Vector3d(0.004 + 0.0021 * k, 0.005, kRadius);
-    c.particles.push_back(p);
-  }
-  c.boundaries.push_back(floor_plane());
-  Domain d;
-  d.min = Vector3d(0.0, 0.0, -0.002);
-  d.max = Vector3d(0.05, 0.01, 0.01);
-  d.periodic = {false, true, false};
-  c.domain = d;
-  c.time_step = 1e-6;
-  return c;
-}
-
 TEST(MovingMesh, TranslatingBladeLoadBalancesTheParticlesMomentum) {
   // A blade of 12 triangles (1 x 20 x 6 mm) moving at 0.1 m/s pushes a row of four spheres on a
   // frictionless floor. Velocity Verlet changes momentum by dt/2 (F_k + F_k+1) per step, the
   // trapezoid rule over successive evaluations, so the blade's integrated load equals minus the
   // momentum change to round-off of the sums (1e-9 relative leaves a wide margin over 1e4 steps
   // of 1e-16).
-  Case c = row_on_floor(4);
+  Case c = testing::row_on_floor(4, 0.3, 1e-6);
   const Vector3d centre(0.0024, 0.005, 0.003);  // front face 0.1 mm behind the row
   const Vector3d half(0.0005, 0.01, 0.003);
   Boundary blade = mesh_boundary(cube_mesh(centre - half, centre + half), centre, 0, "blade");
@@ -631,7 +592,7 @@ TEST(MovingMesh, RotatingPaddleMomentIsRCrossFAndBalancesAngularMomentum) {
   //   - velocity Verlet conserves angular momentum exactly (r_k+1 - r_k is along v_k+1/2): the
   //     spheres' L_z changes by the trapezoid sum of those torques.
   // Contact damping 0.9: the spheres hardly rebound and stay pressed against the paddle.
-  Case c = row_on_floor(0, 0.9);
+  Case c = testing::row_on_floor(0, 0.9, 1e-6);
   c.domain->min = Vector3d(-0.015, -0.015, -0.002);
   c.domain->max = Vector3d(0.015, 0.015, 0.01);
   c.domain->periodic = {false, false, false};
@@ -726,7 +687,7 @@ Case stirred_gas(double end) {
   const bool open[6] = {false, false, false, false, true, false};  // the floor is a mesh
   c.boundaries = box_container(Vector3d::Zero(), Vector3d::Constant(length), 0, open, "box");
   c.boundaries.push_back(
-      mesh_boundary(tessellated_floor(16, 0.0, length), Vector3d::Zero(), 0, "floor"));
+      mesh_boundary(tessellated_square(0.0, length, 16), Vector3d::Zero(), 0, "floor"));
   Boundary paddle =
       mesh_boundary(cube_mesh(axis_point - half, axis_point + half), axis_point, 0, "paddle");
   paddle.motion.axis = Vector3d::UnitZ();

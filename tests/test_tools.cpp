@@ -11,28 +11,6 @@
 namespace bondem {
 namespace {
 
-/// A row of spheres resting on a frictionless floor, periodic across y.
-Case row_on_floor(int count) {
-  Case c = testing::soft_case(0.3);
-  c.materials[0].youngs_modulus = 1e8;
-  c.gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
-  for (int k = 0; k < count; ++k) {
-    ParticleSpec p;
-    p.radius = 1e-3;
-    p.position = Eigen::Vector3d(0.004 + 0.0021 * k, 0.005, 1e-3);
-    c.particles.push_back(p);
-  }
-  c.boundaries.push_back(
-      plane_boundary(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 0, "floor"));
-  Domain d;
-  d.min = Eigen::Vector3d(0.0, 0.0, -0.002);
-  d.max = Eigen::Vector3d(0.05, 0.01, 0.01);
-  d.periodic = {false, true, false};
-  c.domain = d;
-  c.time_step = 2e-7;
-  return c;
-}
-
 TEST(Tools, QuickApartTestAgreesWithTheExactGap) {
   // The kernel skips a tool when surely_apart holds; it must hold exactly when the exact gap
   // reaches the radius. Points on a grid around a box and a slanted cylinder, radius 1 mm; the
@@ -63,7 +41,7 @@ TEST(Tools, QuickApartTestAgreesWithTheExactGap) {
 }
 
 TEST(Blade, PushesParticlesAndItsLoadBalancesTheirMomentum) {
-  Case c = row_on_floor(4);
+  Case c = testing::row_on_floor(4, 0.3, 2e-7);
   Boundary blade;
   blade.name = "blade";
   blade.center = Eigen::Vector3d(0.0024, 0.005, 0.003);  // front face 0.1 mm behind the row
@@ -99,7 +77,7 @@ TEST(Blade, PushesParticlesAndItsLoadBalancesTheirMomentum) {
 }
 
 TEST(Roller, SpinDragsAParticleAlongItsSurface) {
-  Case c = row_on_floor(1);
+  Case c = testing::row_on_floor(1, 0.3, 2e-7);
   c.contact.friction = 0.5;
   Boundary roller;
   roller.name = "roller";

@@ -51,22 +51,6 @@ TriangleMesh fan(int n) {
   return make_mesh(vertices, triangles);
 }
 
-// A grid of n x n squares, two triangles each, over [0, size]^2 at z = 0.
-TriangleMesh tessellated_plane(int n, double size) {
-  std::vector<Vector3d> vertices;
-  std::vector<std::array<int, 3>> triangles;
-  for (int j = 0; j <= n; ++j)
-    for (int i = 0; i <= n; ++i) vertices.emplace_back(size * i / n, size * j / n, 0.0);
-  for (int j = 0; j < n; ++j) {
-    for (int i = 0; i < n; ++i) {
-      const int v = j * (n + 1) + i;
-      triangles.push_back({v, v + 1, v + n + 2});
-      triangles.push_back({v, v + n + 2, v + n + 1});
-    }
-  }
-  return make_mesh(vertices, triangles);
-}
-
 // A latitude-longitude sphere of unit radius: convex, with fans of thin triangles at the poles.
 TriangleMesh uv_sphere(int slices, int stacks) {
   std::vector<Vector3d> vertices{{0, 0, 1}, {0, 0, -1}};
@@ -258,7 +242,7 @@ TEST(TriangleMesh, ConvexSphereMeshOneContactWithTheNearestPoint) {
 
 TEST(TriangleMesh, TessellatedPlaneAlwaysOneContact) {
   // Random spheres over a 20 x 20 grid of squares, a third of them exactly over edges or vertices.
-  const TriangleMesh mesh = tessellated_plane(20, 1.0);
+  const TriangleMesh mesh = tessellated_square(0.0, 1.0, 20);
   const TriangleGrid grid = build_triangle_grid(mesh, 0.05);
   MeshQueryBuffer buffer;
   std::mt19937_64 rng(11);
@@ -578,7 +562,7 @@ TEST(TriangleMesh, QueryCostOfA100kTrianglePlane) {
   // 224 x 224 squares = 100 352 triangles of 4.5 mm over a 1 m plate; spheres of radius 1 mm
   // within one radius of it (each touches it). Printed, not asserted: the machine is shared.
   const int n = 224;
-  const TriangleMesh mesh = tessellated_plane(n, 1.0);
+  const TriangleMesh mesh = tessellated_square(0.0, 1.0, n);
   ASSERT_EQ(mesh.triangles.size(), 100352U);
   const auto t0 = std::chrono::steady_clock::now();
   const TriangleGrid grid = build_triangle_grid(mesh, 1.0 / n);

@@ -645,21 +645,19 @@ template <bool kFriction, bool kModels, class Law>
 /// transposed pairs + boundaries. The force and moment of each boundary on the particles are
 /// summed per block of kWallLoadBlock particles into @p wall_forces (kBoundaryLoadValues per block
 /// and boundary): the caller adds the blocks in order, so boundary loads need no per-particle
-/// storage and keep one summation order. In
-/// thermal runs the same order sums the heat flows into p.heat_rate: contacts, walls held at a
-/// temperature, convection and radiation (the laser is added by the caller). kModels as in
+/// storage and keep one summation order. In thermal runs the same order sums the heat flows into
+/// p.heat_rate: contacts, boundaries held at a temperature, convection and radiation (the laser is
+/// added by the caller). @p frames: every boundary's frame_of at its current pose. kModels as in
 /// compute_pair_forces.
 template <bool kFriction, bool kModels, class Law>
 ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborList& list,
-                             const std::vector<MeshCandidates>& mesh_candidates, const Law& law,
+                             const std::vector<MeshCandidates>& mesh_candidates,
+                             const std::vector<BoundaryFrame>& frames, const Law& law,
                              const PairForces& pair_forces, std::vector<double>& wall_forces) {
   const std::size_t n = p.size();
   const std::size_t boundaries = scene.boundaries.size();
   const std::size_t blocks = (n + kWallLoadBlock - 1) / kWallLoadBlock;
   wall_forces.assign(blocks * boundaries * kBoundaryLoadValues, 0.0);
-  std::vector<BoundaryFrame> frames;
-  frames.reserve(boundaries);
-  for (const Boundary& boundary : scene.boundaries) frames.push_back(frame_of(boundary));
   const Eigen::Vector3d g = scene.gravity;
   std::size_t wall_contacts = 0;
   double max_overlap = 0.0;

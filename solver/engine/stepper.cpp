@@ -63,8 +63,12 @@ ContactSummary Stepper::evaluate_forces(const Law& law) {
                                    pair_flag_ ? &pair_flag_ : nullptr};
   ContactSummary pairs = compute_pair_forces<kFriction, kModels>(
       scene_.particles, scene_, list_, law, criterion, pair_forces_, history_);
-  const ContactSummary walls = gather_forces<kFriction, kModels>(
-      scene_.particles, scene_, list_, mesh_candidates_, law, pair_forces_, wall_forces_);
+  // The boundaries' frames at their poses of this step, into storage kept across steps.
+  boundary_frames_.clear();
+  for (const Boundary& boundary : scene_.boundaries) boundary_frames_.push_back(frame_of(boundary));
+  const ContactSummary walls =
+      gather_forces<kFriction, kModels>(scene_.particles, scene_, list_, mesh_candidates_,
+                                        boundary_frames_, law, pair_forces_, wall_forces_);
   pairs.wall_contacts = walls.wall_contacts;
   pairs.max_overlap = std::max(pairs.max_overlap, walls.max_overlap);
   pairs.max_overlap_fraction = std::max(pairs.max_overlap_fraction, walls.max_overlap_fraction);

@@ -159,6 +159,7 @@ class Stepper {
   PairHistory history_;
   std::vector<double> wall_forces_;  ///< per block of particles and boundary, last evaluation
   std::vector<MeshCandidates> mesh_candidates_;  ///< per boundary; gathered with every list
+  std::vector<BoundaryFrame> boundary_frames_;   ///< per boundary, at the last evaluation
   ContactSummary contacts_;
   double time_ = 0.0;
   std::int64_t step_count_ = 0;
