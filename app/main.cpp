@@ -154,8 +154,31 @@ void print_boundaries(const Case& c) {
   }
 }
 
+/// Select the SIMD pass's target from --simd; an unknown name or one this CPU lacks is a usage
+/// error naming what it supports.
+void select_simd(const std::string& name) {
+  const std::optional<bondem::SimdTarget> target = bondem::parse_simd_target(name);
+  if (!target) {
+    throw UsageError("--simd " + name + ": unknown target (auto, scalar, sse4, avx2, avx512)");
+  }
+  bondem::select_simd_target(*target);  // std::invalid_argument naming the supported ones
+}
+
+/// Which pass evaluates the case's pairs: "pair pass SIMD avx512", or "pair pass scalar (why)".
+std::string pair_pass_text(const Case& c) {
+  std::vector<bondem::PairCoefficients> table;
+  const int n = static_cast<int>(c.materials.size());
+  for (int a = 0; a < n; ++a) {
+    for (int b = 0; b < n; ++b) table.push_back(c.pair_coefficients(a, b));
+  }
+  const char* reason = bondem::scalar_pass_reason(c.normal_law, table, c.thermal.has_value());
+  if (reason != nullptr) return std::string("pair pass scalar (") + reason + ")";
+  return std::string("pair pass SIMD ") + bondem::simd_target_name(bondem::simd_target_in_use());
+}
+
 int run_info(const std::string& case_path, const std::vector<std::string>& overrides,
-             std::optional<double> velocity) {
+             std::optional<double> velocity, const std::string& simd) {
+  select_simd(simd);
   const Case c = bondem::load_case(case_path, overrides);
   // First: a non-finite or unphysical derived quantity is an input error, before any output.
   const bondem::TimeStepLimit limit = bondem::case_time_step_bound(c);
@@ -168,7 +191,8 @@ int run_info(const std::string& case_path, const std::vector<std::string>& overr
   const std::vector<double> radii = reference_radii(c);
   const std::size_t n = c.materials.size();
   std::cout << "# bond calculator for " << case_path << "; radii are the mean of each material's"
-            << " particles; reference impact speed: " << reference_source << "\n";
+            << " particles; reference impact speed: " << reference_source << "\n"
+            << "# " << pair_pass_text(c) << "\n";
   for (std::size_t a = 0; a < n; ++a) {
     for (std::size_t b = a; b < n; ++b) {
       const bondem::PairCoefficients pair =
@@ -384,6 +408,7 @@ struct RunCommand {
   std::string case_path;
   std::vector<std::string> overrides;
   std::optional<int> threads;
+  std::string simd = "auto";
   std::string output;
   bool quiet = false;
   std::vector<std::string> command_line;  ///< argv, for the resume command
@@ -426,6 +451,7 @@ std::string measured(const std::optional<double>& value, const bondem::PackingRe
 
 int run_run(const RunCommand& o) {
   set_threads(o.threads);
+  select_simd(o.simd);
   Case c = o.case_path.empty()
                ? bondem::parse_case(bondem::kDefaultCase, "<built-in packing case>", o.overrides)
                : bondem::load_case(o.case_path, o.overrides);
@@ -438,7 +464,7 @@ int run_run(const RunCommand& o) {
       std::cerr << " (below " << bondem::kMinParallelParticles
                 << " particles the loops run serially; " << omp_get_max_threads() << " available)";
     }
-    std::cerr << "\n";
+    std::cerr << ", " << pair_pass_text(c) << "\n";
   }
   bondem::RunOptions options;
   options.output_directory = o.output;
@@ -508,12 +534,15 @@ int run_command_line(int argc, char** argv) {
   std::string info_case;
   std::vector<std::string> info_overrides;
   std::optional<double> info_velocity;
+  std::string info_simd = "auto";
   auto* info = app.add_subcommand("info", "Bond calculator: derived quantities per material pair");
   info->add_option("case", info_case, "Case file (YAML)")->required();
   // One KEY=VALUE per --set: a --set before the case file must not swallow it.
   info->add_option("--set", info_overrides, "Override a scalar: KEY=VALUE (dotted key)")
       ->allow_extra_args(false);
   info->add_option("--velocity", info_velocity, "Reference impact speed [m/s]");
+  info->add_option("--simd", info_simd,
+                   "SIMD target to report: auto (default), scalar, sse4, avx2, avx512");
 
   CollideOptions collide;
   auto* collide_cmd =
@@ -536,6 +565,8 @@ int run_command_line(int argc, char** argv) {
       "run", "Run a case; without a case file, the built-in powder-bed packing case");
   run_cmd->add_option("case", run.case_path, "Case file (YAML)");
   run_cmd->add_option("--threads", run.threads, "OpenMP threads (default: OMP_NUM_THREADS or all)");
+  run_cmd->add_option("--simd", run.simd,
+                      "SIMD target of the pair pass: auto (default), scalar, sse4, avx2, avx512");
   run_cmd->add_option("--output", run.output, "Output directory (default: output.directory)");
   run_cmd->add_option("--set", run.overrides, "Override a scalar: KEY=VALUE (dotted key)")
       ->allow_extra_args(false);
@@ -559,7 +590,7 @@ int run_command_line(int argc, char** argv) {
   }
 
   try {
-    if (info->parsed()) return run_info(info_case, info_overrides, info_velocity);
+    if (info->parsed()) return run_info(info_case, info_overrides, info_velocity, info_simd);
     if (collide_cmd->parsed()) return run_collide(collide);
     if (run_cmd->parsed()) return run_run(run);
   } catch (const bondem::RunInterrupted& e) {

@@ -1,17 +1,21 @@
 // The pair kernel (pass 1) alone, per contact: the bond law with alpha_adh = 1 and a general
 // alpha_adh, with and without friction, on unbonded and bonded pairs, over packings of three
 // solid fractions (simple-cubic 0.52, body-centred 0.68, face-centred 0.74 lattices whose
-// nearest neighbours overlap by 1e-3 of a radius), at several particle counts.
+// nearest neighbours overlap by 1e-3 of a radius), at several particle counts, through the scalar
+// pass (target -1) and the SIMD pass on each target this CPU supports (1 scalar, 2 sse4, 3 avx2,
+// 4 avx512: SimdTarget). alpha_adh = 0.5 has no SIMD form (std::pow) and runs the scalar pass only.
 //
 //   bench_kernel --benchmark_filter=Friction   (counters: contacts_per_second, pairs_per_contact)
 #include <benchmark/benchmark.h>
 #include <omp.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <vector>
 
 #include "solver/engine/contact_kernel.hpp"
+#include "solver/engine/pair_kernel_simd.hpp"
 #include "solver/engine/scene.hpp"
 #include "solver/engine/stepper.hpp"
 
@@ -66,11 +70,26 @@ Scene packing(int kind, std::size_t target, bool friction, bool bonded, double a
 }
 
 /// Pass 1 over a packing whose one material pair has friction (kFriction), bonds or not, with
-/// adhesion exponent @p alpha.
+/// adhesion exponent @p alpha, through the pass of state.range(2) (-1 scalar, else a SimdTarget).
 template <bool kFriction>
 void pair_pass(benchmark::State& state, bool bonded, double alpha) {
+  const bool simd = state.range(2) >= 0;
+  const auto target = static_cast<SimdTarget>(state.range(2));
+  if (simd) {
+    const std::vector<SimdTarget> usable = supported_simd_targets();
+    if (std::find(usable.begin(), usable.end(), target) == usable.end()) {
+      state.SkipWithError("target not supported by this CPU");
+      return;
+    }
+    select_simd_target(target);
+  }
   Scene scene = packing(static_cast<int>(state.range(0)), static_cast<std::size_t>(state.range(1)),
                         kFriction, bonded, alpha);
+  if (simd && !simd_pass_applies(scene)) {
+    state.SkipWithError("no SIMD form for this model");
+    return;
+  }
+  const std::vector<LanePairConstants> constants = lane_pair_constants(scene);
   const BondNormalLaw law;
   Stepper stepper(scene);  // builds the list and checks the packing evaluates
   const NeighborList& list = stepper.neighbors();
@@ -81,8 +100,10 @@ void pair_pass(benchmark::State& state, bool bonded, double alpha) {
   const BondingCriterion criterion{scene.particles, forces.bonded, nullptr};
   ContactSummary summary;
   for (auto _ : state) {
-    summary = compute_pair_forces<kFriction, false>(scene.particles, scene, list, law, criterion,
-                                                    forces, history);
+    summary =
+        simd ? simd_pair_forces(scene.particles, scene, list, constants, criterion, forces, history)
+             : compute_pair_forces<kFriction, false>(scene.particles, scene, list, law, criterion,
+                                                     forces, history);
     benchmark::DoNotOptimize(forces.fx.data());
   }
   if (bonded && summary.bonds != summary.contacts) state.SkipWithError("pairs are not bonded");
@@ -111,12 +132,15 @@ void BM_Pairs_Friction_Bonded_Alpha1(benchmark::State& s) {
   pair_pass<true>(s, true, 1.0);
 }
 
-/// {lattice: 0 SC, 1 BCC, 2 FCC} x {about 8 000, 64 000 particles}.
+/// {lattice: 0 SC, 1 BCC, 2 FCC} x {about 8 000, 64 000 particles} x {pass: -1 scalar, SIMD
+/// targets 1 scalar, 2 sse4, 3 avx2, 4 avx512}.
 void sweep(benchmark::internal::Benchmark* b) {
   for (const int kind : {0, 1, 2}) {
-    for (const int count : {8000, 64000}) b->Args({kind, count});
+    for (const int count : {8000, 64000}) {
+      for (const int target : {-1, 1, 2, 3, 4}) b->Args({kind, count, target});
+    }
   }
-  b->ArgNames({"lattice", "particles"})->Unit(benchmark::kMillisecond);
+  b->ArgNames({"lattice", "particles", "target"})->Unit(benchmark::kMillisecond);
 }
 
 }  // namespace

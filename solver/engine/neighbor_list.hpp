@@ -89,6 +89,13 @@ class NeighborList {
     }
   }
 
+  /// First pair of each row, size row_count() + 1: row i holds pairs [row_begins()[i],
+  /// row_begins()[i + 1]). For kernels that walk the list themselves (pair_kernel_simd.cpp).
+  const std::vector<std::uint32_t>& row_begins() const { return row_begin_; }
+
+  /// Second particle j of pair k.
+  std::size_t second(std::uint32_t k) const { return second_[k]; }
+
   /// The pairs of particle @p i: @p as_first(k) for each pair in which it is the first member,
   /// then @p as_second(k) for each in which it is the second, each in list order. Serial; one
   /// fixed order per particle, so sums over it are the same bytes for any thread count.

@@ -16,6 +16,7 @@ Stepper::Stepper(Scene& scene, PairFlag pair_flag)
   if (scene_.needs_pair_flag() && !pair_flag_) {
     throw std::invalid_argument("bond criterion 'pair flag' needs a pair-flag supplier");
   }
+  if (simd_pass_applies(scene_)) lane_constants_ = lane_pair_constants(scene_);
   list_.build(scene_.particles, scene_.domain, list_reach(), scene_.reorder_interval > 0);
   apply_slips({});
   build_mesh_candidates(scene_, mesh_candidates_);
@@ -28,6 +29,7 @@ Stepper::Stepper(Scene& scene, const StepperState& restored, PairFlag pair_flag)
   if (scene_.needs_pair_flag() && !pair_flag_) {
     throw std::invalid_argument("bond criterion 'pair flag' needs a pair-flag supplier");
   }
+  if (simd_pass_applies(scene_)) lane_constants_ = lane_pair_constants(scene_);
   // Forces come with the particles: they were evaluated with the half-step velocities of the
   // interrupted step, which a fresh evaluation could not reproduce.
   list_.restore(scene_.particles, scene_.domain, list_reach(), restored.list);
@@ -61,8 +63,17 @@ template <bool kFriction, bool kModels, class Law>
 ContactSummary Stepper::evaluate_forces(const Law& law) {
   const BondingCriterion criterion{scene_.particles, pair_forces_.bonded,
                                    pair_flag_ ? &pair_flag_ : nullptr};
-  ContactSummary pairs = compute_pair_forces<kFriction, kModels>(
-      scene_.particles, scene_, list_, law, criterion, pair_forces_, history_);
+  ContactSummary pairs;
+  if constexpr (!kModels && std::is_same_v<Law, BondNormalLaw>) {
+    pairs = lane_constants_.empty()
+                ? compute_pair_forces<kFriction, kModels>(scene_.particles, scene_, list_, law,
+                                                          criterion, pair_forces_, history_)
+                : simd_pair_forces(scene_.particles, scene_, list_, lane_constants_, criterion,
+                                   pair_forces_, history_);
+  } else {
+    pairs = compute_pair_forces<kFriction, kModels>(scene_.particles, scene_, list_, law, criterion,
+                                                    pair_forces_, history_);
+  }
   // The boundaries' frames at their poses of this step, into storage kept across steps.
   boundary_frames_.clear();
   for (const Boundary& boundary : scene_.boundaries) boundary_frames_.push_back(frame_of(boundary));

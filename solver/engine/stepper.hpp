@@ -13,6 +13,7 @@
 #include "solver/engine/contact_kernel.hpp"
 #include "solver/engine/mesh_candidates.hpp"
 #include "solver/engine/neighbor_list.hpp"
+#include "solver/engine/pair_kernel_simd.hpp"
 #include "solver/engine/scene.hpp"
 
 namespace bondem {
@@ -160,6 +161,9 @@ class Stepper {
   std::vector<double> wall_forces_;  ///< per block of particles and boundary, last evaluation
   std::vector<MeshCandidates> mesh_candidates_;  ///< per boundary; gathered with every list
   std::vector<BoundaryFrame> boundary_frames_;   ///< per boundary, at the last evaluation
+  /// Per material pair, the SIMD pass's constants; empty where the run takes the scalar pass
+  /// (simd_pass_applies).
+  std::vector<LanePairConstants> lane_constants_;
   ContactSummary contacts_;
   double time_ = 0.0;
   std::int64_t step_count_ = 0;

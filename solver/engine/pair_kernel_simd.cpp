@@ -1,0 +1,481 @@
+// Pass 1 in SIMD lanes (pair_kernel_simd.hpp). Highway re-includes this file once per target
+// (hwy/foreach_target.h): the code between HWY_BEFORE_NAMESPACE and HWY_AFTER_NAMESPACE is
+// compiled for each instruction set, the HWY_ONCE part once.
+#include "solver/engine/pair_kernel_simd.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <stdexcept>
+
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "solver/engine/pair_kernel_simd.cpp"
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/highway.h>
+
+#include "solver/models/contact_lanes-inl.h"
+
+#ifndef BONDEM_PAIR_KERNEL_SIMD_ONCE
+#define BONDEM_PAIR_KERNEL_SIMD_ONCE
+namespace bondem::detail {
+/// What every target's pass reads and writes.
+struct LanePassArgs {
+  const Particles* particles;
+  const Scene* scene;
+  const NeighborList* list;
+  const LanePairConstants* constants;  ///< per material pair, pair_table order
+  const BondingCriterion* criterion;
+  PairForces* out;
+  PairHistory* history;
+  bool uniform;  ///< one material pair: constants[0] for every lane
+};
+}  // namespace bondem::detail
+#endif
+
+HWY_BEFORE_NAMESPACE();
+namespace bondem::HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+
+/// Pairs gathered per block: enough lanes to hide the latency of the roots and divisions, little
+/// enough to keep the block's inputs in L1.
+constexpr std::uint32_t kLaneBlock = 64;
+
+/// A block of pairs gathered from the particle arrays into lane order. Lanes past the block's
+/// last pair hold a pair far apart (no contact), so whole vectors can be evaluated.
+struct PairBlock {
+  static constexpr int kConstants = 11;
+  HWY_ALIGN double dx[kLaneBlock], dy[kLaneBlock], dz[kLaneBlock];
+  HWY_ALIGN double ri[kLaneBlock], rj[kLaneBlock], mi[kLaneBlock], mj[kLaneBlock];
+  HWY_ALIGN double dvx[kLaneBlock], dvy[kLaneBlock], dvz[kLaneBlock];  ///< v_j - v_i
+  HWY_ALIGN double wix[kLaneBlock], wiy[kLaneBlock], wiz[kLaneBlock];
+  HWY_ALIGN double wjx[kLaneBlock], wjy[kLaneBlock], wjz[kLaneBlock];
+  HWY_ALIGN double sx[kLaneBlock], sy[kLaneBlock], sz[kLaneBlock];  ///< stored springs
+  HWY_ALIGN double criterion[kLaneBlock];  ///< 1 where the pair may bond now
+  HWY_ALIGN double bonded[kLaneBlock];     ///< out: 1 where the pair is bonded after the pass
+  /// Per-lane LanePairConstants, filled only when the scene has several material pairs.
+  HWY_ALIGN double constant[kConstants][kLaneBlock];
+};
+
+/// The members of LanePairConstants in PairBlock::constant order.
+inline void put_constants(PairBlock& b, std::uint32_t s, const LanePairConstants& c) {
+  const double values[PairBlock::kConstants] = {c.four_thirds_e,
+                                                c.two_e,
+                                                c.two_xi_contact,
+                                                c.two_xi_bond,
+                                                c.equilibrium_overlap,
+                                                c.adhesion_stiffness,
+                                                c.stiffness_input,
+                                                c.critical_ratio,
+                                                c.eight_g,
+                                                c.tangential_ratio,
+                                                c.friction};
+  for (int v = 0; v < PairBlock::kConstants; ++v) b.constant[v][s] = values[v];
+}
+
+/// Gathers pair k = (i, j) into lane @p s of @p b.
+template <bool kFriction>
+HWY_INLINE void pack_pair(const detail::LanePassArgs& a, PairBlock& b, std::uint32_t s,
+                          std::size_t i, std::size_t j, std::uint32_t k) {
+  const Particles& p = *a.particles;
+  const Eigen::Vector3d d = a.list->separation(p, i, j, k);
+  b.dx[s] = d.x();
+  b.dy[s] = d.y();
+  b.dz[s] = d.z();
+  b.ri[s] = p.radius[i];
+  b.rj[s] = p.radius[j];
+  b.mi[s] = p.mass[i];
+  b.mj[s] = p.mass[j];
+  b.dvx[s] = p.vx[j] - p.vx[i];
+  b.dvy[s] = p.vy[j] - p.vy[i];
+  b.dvz[s] = p.vz[j] - p.vz[i];
+  const PairCoefficients& c = a.scene->pair(p.material[i], p.material[j]);
+  b.criterion[s] = (*a.criterion)(c, i, j, k) ? 1.0 : 0.0;
+  if (!a.uniform) {
+    put_constants(b, s,
+                  a.constants[static_cast<std::size_t>(p.material[i] * a.scene->material_count +
+                                                       p.material[j])]);
+  }
+  if constexpr (kFriction) {
+    b.wix[s] = p.wx[i];
+    b.wiy[s] = p.wy[i];
+    b.wiz[s] = p.wz[i];
+    b.wjx[s] = p.wx[j];
+    b.wjy[s] = p.wy[j];
+    b.wjz[s] = p.wz[j];
+    b.sx[s] = a.history->sx[k];
+    b.sy[s] = a.history->sy[k];
+    b.sz[s] = a.history->sz[k];
+  }
+}
+
+/// Fills lanes [@p count, @p end) of @p b with a pair far apart, whose lanes evaluate to no
+/// contact without NaNs or denormals.
+template <bool kFriction>
+HWY_INLINE void pad_block(PairBlock& b, std::uint32_t count, std::uint32_t end) {
+  for (std::uint32_t s = count; s < end; ++s) {
+    b.dx[s] = 1.0;
+    b.dy[s] = b.dz[s] = 0.0;
+    b.ri[s] = b.rj[s] = 0.0;
+    b.mi[s] = b.mj[s] = 1.0;
+    b.dvx[s] = b.dvy[s] = b.dvz[s] = 0.0;
+    b.criterion[s] = 0.0;
+    for (int v = 0; v < PairBlock::kConstants; ++v) b.constant[v][s] = 0.0;
+    if constexpr (kFriction) {
+      b.wix[s] = b.wiy[s] = b.wiz[s] = b.wjx[s] = b.wjy[s] = b.wjz[s] = 0.0;
+      b.sx[s] = b.sy[s] = b.sz[s] = 0.0;
+    }
+  }
+}
+
+/// Stores @p v at @p to: the whole vector, or its first @p valid lanes.
+template <class D>
+HWY_INLINE void store_lanes(D d, hn::Vec<D> v, std::size_t valid, double* to) {
+  if (valid >= hn::Lanes(d)) {
+    hn::StoreU(v, d, to);
+  } else {
+    hn::BlendedStore(v, hn::FirstN(d, valid), d, to);
+  }
+}
+
+/// What the lanes of one pass saw.
+struct LaneTally {
+  std::size_t contacts = 0, bonds = 0;
+  double max_overlap = 0.0, max_fraction = 0.0;
+};
+
+/// Evaluates the @p count packed pairs of @p b, stored at pairs first_k ... first_k + count - 1.
+template <bool kFriction>
+HWY_INLINE void evaluate_block(const detail::LanePassArgs& a, PairBlock& b, std::uint32_t first_k,
+                               std::uint32_t count, LaneTally& tally) {
+  using D = hn::ScalableTag<double>;
+  const D d;
+  using V = hn::Vec<D>;
+  using M = hn::Mask<D>;
+  const std::size_t lanes = hn::Lanes(d);
+  const V zero = hn::Zero(d);
+  const V one = hn::Set(d, 1.0);
+  const V half = hn::Set(d, 0.5);
+  const V dt = hn::Set(d, a.scene->time_step);
+  PairForces& out = *a.out;
+  PairHistory& history = *a.history;
+  const LanePairConstants& c0 = a.constants[0];
+  const auto constant = [&](int v, double uniform_value, std::uint32_t s) HWY_ATTR {
+    return a.uniform ? hn::Set(d, uniform_value) : hn::Load(d, b.constant[v] + s);
+  };
+  V max_overlap = zero;
+  V max_fraction = zero;
+  for (std::uint32_t s = 0; s < count; s += static_cast<std::uint32_t>(lanes)) {
+    const std::size_t valid = std::min<std::size_t>(lanes, count - s);
+    const std::uint32_t k = first_k + s;
+    const M in_block = hn::FirstN(d, valid);
+    const V dx = hn::Load(d, b.dx + s), dy = hn::Load(d, b.dy + s), dz = hn::Load(d, b.dz + s);
+    const V ri = hn::Load(d, b.ri + s), rj = hn::Load(d, b.rj + s);
+    const V distance = hn::Sqrt(dx * dx + dy * dy + dz * dz);
+    const V radius_sum = ri + rj;
+    const V overlap = radius_sum - distance;
+    const M contact = hn::And(in_block, overlap > zero);
+    const V no_force = zero;
+    if (hn::AllFalse(d, contact)) {
+      // No contact in these lanes: no force, torque or bond, springs released.
+      store_lanes(d, no_force, valid, out.fx.data() + k);
+      store_lanes(d, no_force, valid, out.fy.data() + k);
+      store_lanes(d, no_force, valid, out.fz.data() + k);
+      hn::Store(no_force, d, b.bonded + s);
+      if constexpr (kFriction) {
+        for (double* to : {out.cx.data(), out.cy.data(), out.cz.data(), out.overlap.data(),
+                           history.sx.data(), history.sy.data(), history.sz.data()}) {
+          store_lanes(d, no_force, valid, to + k);
+        }
+      }
+      continue;
+    }
+    const V mi = hn::Load(d, b.mi + s), mj = hn::Load(d, b.mj + s);
+    // One reciprocal gives 1/distance, r* = r_i r_j / (r_i + r_j) and m* likewise.
+    const V mass_sum = mi + mj;
+    const V q = one / (distance * radius_sum * mass_sum);
+    const V inverse_distance = radius_sum * mass_sum * q;
+    const V r_star = ri * rj * (distance * mass_sum) * q;
+    const V m_star = mi * mj * (distance * radius_sum) * q;
+    const Lanes3<D> n{dx * inverse_distance, dy * inverse_distance, dz * inverse_distance};
+    const Lanes3<D> dv{hn::Load(d, b.dvx + s), hn::Load(d, b.dvy + s), hn::Load(d, b.dvz + s)};
+    const V rate = hn::Neg(dot(dv, n));
+    const V positive_overlap = zero_where(d, hn::Not(contact), overlap);
+    const V a_contact = hn::Sqrt(r_star * positive_overlap);
+    const V four_thirds_e = constant(0, c0.four_thirds_e, s);
+    const HertzLanes<D> h =
+        hertz_lanes(d, four_thirds_e, constant(1, c0.two_e, s), constant(2, c0.two_xi_contact, s),
+                    m_star, a_contact, positive_overlap, rate);
+    V normal = h.force;
+    V load = hn::Neg(h.force);
+    M bonded = hn::And(contact, hn::Load(d, b.criterion + s) > zero);
+    if (!hn::AllFalse(d, bonded)) {
+      // Past delta_crit the bond of eq. 25 replaces the contact; delta_eq is the input, or
+      // follows from k_adh by eq. 13: (k_adh / k_h)^2 with k_h^2 = ((4/3) E*)^2 r*.
+      const M stiffness_input = constant(6, c0.stiffness_input, s) > zero;
+      const V given_k_adh = constant(5, c0.adhesion_stiffness, s);
+      const V given_delta_eq = constant(4, c0.equilibrium_overlap, s);
+      const V k_h_sq = four_thirds_e * four_thirds_e * r_star;
+      const V delta_eq = hn::IfThenElse(
+          stiffness_input, given_k_adh * given_k_adh / hn::IfThenElse(stiffness_input, k_h_sq, one),
+          given_delta_eq);
+      bonded = hn::And(bonded, positive_overlap > constant(7, c0.critical_ratio, s) * delta_eq);
+      if (!hn::AllFalse(d, bonded)) {
+        const V k_adh = hn::IfThenElse(stiffness_input, given_k_adh,
+                                       four_thirds_e * hn::Sqrt(r_star * given_delta_eq));
+        const V bond = bond_lanes(d, h, k_adh, delta_eq, constant(3, c0.two_xi_bond, s), m_star,
+                                  positive_overlap, rate);
+        normal = hn::IfThenElse(bonded, bond, normal);
+        // A bond presses with its Hertz part even where the net force vanishes.
+        load = hn::IfThenElse(bonded, h.elastic, load);
+      }
+    }
+    hn::Store(hn::IfThenElseZero(bonded, one), d, b.bonded + s);
+    Lanes3<D> force{normal * n.x, normal * n.y, normal * n.z};
+    if constexpr (kFriction) {
+      // Levers to the middle of the overlap: (r_i - delta/2) n from i, -(r_j - delta/2) n from j.
+      const V lever_i = ri - half * positive_overlap;
+      const V lever_j = rj - half * positive_overlap;
+      const Lanes3<D> arm_i{lever_i * n.x, lever_i * n.y, lever_i * n.z};
+      const Lanes3<D> arm_j{hn::Neg(lever_j * n.x), hn::Neg(lever_j * n.y), hn::Neg(lever_j * n.z)};
+      const Lanes3<D> spin_i{hn::Load(d, b.wix + s), hn::Load(d, b.wiy + s),
+                             hn::Load(d, b.wiz + s)};
+      const Lanes3<D> spin_j{hn::Load(d, b.wjx + s), hn::Load(d, b.wjy + s),
+                             hn::Load(d, b.wjz + s)};
+      const Lanes3<D> turn_j = cross(spin_j, arm_j);
+      const Lanes3<D> turn_i = cross(spin_i, arm_i);
+      const Lanes3<D> relative{dv.x + turn_j.x - turn_i.x, dv.y + turn_j.y - turn_i.y,
+                               dv.z + turn_j.z - turn_i.z};
+      const Lanes3<D> sliding = tangential_part(relative, n);
+      Lanes3<D> spring{hn::Load(d, b.sx + s), hn::Load(d, b.sy + s), hn::Load(d, b.sz + s)};
+      const V k_t = constant(8, c0.eight_g, s) * a_contact;
+      const V d_t =
+          constant(2, c0.two_xi_contact, s) * h.root_mk * constant(9, c0.tangential_ratio, s);
+      const Lanes3<D> friction = tangential_lanes(
+          d, contact, k_t, d_t, constant(10, c0.friction, s) * load, n, sliding, dt, spring);
+      force = {force.x + friction.x, force.y + friction.y, force.z + friction.z};
+      const Lanes3<D> per_lever = cross(n, friction);
+      store_lanes(d, hn::IfThenElseZero(contact, per_lever.x), valid, out.cx.data() + k);
+      store_lanes(d, hn::IfThenElseZero(contact, per_lever.y), valid, out.cy.data() + k);
+      store_lanes(d, hn::IfThenElseZero(contact, per_lever.z), valid, out.cz.data() + k);
+      store_lanes(d, positive_overlap, valid, out.overlap.data() + k);
+      store_lanes(d, hn::IfThenElseZero(contact, spring.x), valid, history.sx.data() + k);
+      store_lanes(d, hn::IfThenElseZero(contact, spring.y), valid, history.sy.data() + k);
+      store_lanes(d, hn::IfThenElseZero(contact, spring.z), valid, history.sz.data() + k);
+    }
+    store_lanes(d, hn::IfThenElseZero(contact, force.x), valid, out.fx.data() + k);
+    store_lanes(d, hn::IfThenElseZero(contact, force.y), valid, out.fy.data() + k);
+    store_lanes(d, hn::IfThenElseZero(contact, force.z), valid, out.fz.data() + k);
+    tally.contacts += hn::CountTrue(d, contact);
+    tally.bonds += hn::CountTrue(d, bonded);
+    // Largest overlap and overlap / smaller radius; max is exact, so any lane order agrees.
+    const V smaller = hn::IfThenElse(ri < rj, ri, rj);
+    const V fraction = positive_overlap / hn::IfThenElse(contact, smaller, one);
+    max_overlap = hn::IfThenElse(positive_overlap > max_overlap, positive_overlap, max_overlap);
+    max_fraction = hn::IfThenElse(fraction > max_fraction, fraction, max_fraction);
+  }
+  HWY_ALIGN double lane_values[hn::MaxLanes(d)];
+  hn::Store(max_overlap, d, lane_values);
+  for (std::size_t l = 0; l < lanes; ++l)
+    tally.max_overlap = std::max(tally.max_overlap, lane_values[l]);
+  hn::Store(max_fraction, d, lane_values);
+  for (std::size_t l = 0; l < lanes; ++l) {
+    tally.max_fraction = std::max(tally.max_fraction, lane_values[l]);
+  }
+}
+
+/// Pass 1 over rows [@p first_row, @p last_row): pack, evaluate and unpack block by block.
+template <bool kFriction>
+ContactSummary LanePass(const detail::LanePassArgs& a, std::size_t first_row,
+                        std::size_t last_row) {
+  const hn::ScalableTag<double> d;
+  const std::uint32_t lanes = static_cast<std::uint32_t>(hn::Lanes(d));
+  const std::vector<std::uint32_t>& row_begin = a.list->row_begins();
+  PairForces& out = *a.out;
+  PairBlock b;
+  LaneTally tally;
+  ContactSummary summary;
+  std::size_t row = first_row;
+  const std::uint32_t pairs_end = row_begin[last_row];
+  for (std::uint32_t block = row_begin[first_row]; block < pairs_end; block += kLaneBlock) {
+    const std::uint32_t count = std::min(pairs_end - block, kLaneBlock);
+    for (std::uint32_t s = 0; s < count; ++s) {
+      const std::uint32_t k = block + s;
+      while (row_begin[row + 1] <= k) ++row;
+      pack_pair<kFriction>(a, b, s, row, a.list->second(k), k);
+    }
+    pad_block<kFriction>(b, count, (count + lanes - 1) / lanes * lanes);
+    evaluate_block<kFriction>(a, b, block, count, tally);
+    for (std::uint32_t s = 0; s < count; ++s) {
+      const std::uint8_t now = b.bonded[s] > 0.0 ? 1 : 0;
+      const std::uint8_t before = out.bonded[block + s];
+      summary.bonds_formed += now > before ? 1 : 0;
+      summary.bonds_broken += now < before ? 1 : 0;
+      out.bonded[block + s] = now;
+    }
+  }
+  summary.contacts = tally.contacts;
+  summary.bonds = tally.bonds;
+  summary.max_overlap = tally.max_overlap;
+  summary.max_overlap_fraction = tally.max_fraction;
+  return summary;
+}
+
+ContactSummary LanePassWithFriction(const detail::LanePassArgs& a, std::size_t first_row,
+                                    std::size_t last_row) {
+  return LanePass<true>(a, first_row, last_row);
+}
+ContactSummary LanePassWithoutFriction(const detail::LanePassArgs& a, std::size_t first_row,
+                                       std::size_t last_row) {
+  return LanePass<false>(a, first_row, last_row);
+}
+
+}  // namespace bondem::HWY_NAMESPACE
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace bondem {
+
+HWY_EXPORT(LanePassWithFriction);
+HWY_EXPORT(LanePassWithoutFriction);
+
+namespace {
+/// Highway's bit for each target, in SimdTarget order after kAuto.
+struct TargetBit {
+  SimdTarget target;
+  const char* name;
+  std::int64_t bit;
+};
+constexpr TargetBit kTargetBits[] = {{SimdTarget::kScalar, "scalar", HWY_SCALAR},
+                                     {SimdTarget::kSse4, "sse4", HWY_SSE4},
+                                     {SimdTarget::kAvx2, "avx2", HWY_AVX2},
+                                     {SimdTarget::kAvx512, "avx512", HWY_AVX3}};
+
+/// The targets both compiled in (HWY_TARGETS) and supported by this CPU.
+std::int64_t usable_bits() {
+  return hwy::SupportedTargets() & HWY_TARGETS;
+}
+
+SimdTarget selected = SimdTarget::kAuto;
+}  // namespace
+
+std::optional<SimdTarget> parse_simd_target(std::string_view name) {
+  if (name == "auto") return SimdTarget::kAuto;
+  for (const TargetBit& t : kTargetBits) {
+    if (name == t.name) return t.target;
+  }
+  return std::nullopt;
+}
+
+const char* simd_target_name(SimdTarget target) {
+  for (const TargetBit& t : kTargetBits) {
+    if (t.target == target) return t.name;
+  }
+  return "auto";
+}
+
+std::vector<SimdTarget> supported_simd_targets() {
+  std::vector<SimdTarget> targets;
+  for (const TargetBit& t : kTargetBits) {
+    if ((usable_bits() & t.bit) != 0) targets.push_back(t.target);
+  }
+  return targets;
+}
+
+void select_simd_target(SimdTarget target) {
+  const std::vector<SimdTarget> usable = supported_simd_targets();
+  if (target == SimdTarget::kAuto) target = usable.back();
+  if (std::find(usable.begin(), usable.end(), target) == usable.end()) {
+    std::string names;
+    for (SimdTarget t : usable)
+      names += std::string(names.empty() ? "" : ", ") + simd_target_name(t);
+    throw std::invalid_argument(std::string("SIMD target '") + simd_target_name(target) +
+                                "' is not supported by this CPU (supported: " + names + ")");
+  }
+  for (const TargetBit& t : kTargetBits) {
+    if (t.target == target) hwy::GetChosenTarget().Update(t.bit);
+  }
+  selected = target;
+}
+
+SimdTarget simd_target_in_use() {
+  if (selected == SimdTarget::kAuto) select_simd_target(SimdTarget::kAuto);
+  return selected;
+}
+
+const char* scalar_pass_reason(const NormalLawSpec& law, const std::vector<PairCoefficients>& pairs,
+                               bool thermal) {
+  if (!std::holds_alternative<BondLawSpec>(law)) return "the Hooke law";
+  if (thermal) return "heat conduction";
+  for (const PairCoefficients& c : pairs) {
+    if (c.alpha != 1.0) return "an adhesion exponent alpha != 1 (std::pow)";
+    if (c.cohesion == CohesionModel::kSjkr) return "sJKR cohesion";
+    if (c.cohesion == CohesionModel::kJkr) return "JKR cohesion";
+    if (c.rolling_friction != 0.0) return "rolling resistance";
+  }
+  return nullptr;
+}
+
+bool simd_pass_applies(const Scene& scene) {
+  return scalar_pass_reason(scene.normal_law, scene.pair_table, scene.particles.thermal()) ==
+         nullptr;
+}
+
+std::vector<LanePairConstants> lane_pair_constants(const Scene& scene) {
+  std::vector<LanePairConstants> constants;
+  for (const PairCoefficients& c : scene.pair_table) {
+    LanePairConstants l;
+    l.four_thirds_e = 4.0 / 3.0 * c.effective_modulus;
+    l.two_e = 2.0 * c.effective_modulus;
+    l.two_xi_contact = 2.0 * c.contact_damping;
+    l.two_xi_bond = 2.0 * c.bond_damping;
+    const bool stiffness_input = c.input == AdhesionInput::kStiffness;
+    l.stiffness_input = stiffness_input ? 1.0 : 0.0;
+    l.equilibrium_overlap = stiffness_input ? 0.0 : c.equilibrium_overlap;
+    l.adhesion_stiffness = stiffness_input ? c.adhesion_stiffness : 0.0;
+    l.critical_ratio = c.critical_ratio;
+    l.eight_g = 8.0 * c.shear_modulus;
+    l.tangential_ratio =
+        c.effective_modulus > 0.0 ? std::sqrt(4.0 * c.shear_modulus / c.effective_modulus) : 0.0;
+    l.friction = c.friction;
+    constants.push_back(l);
+  }
+  return constants;
+}
+
+ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const NeighborList& list,
+                                std::span<const LanePairConstants> constants,
+                                const BondingCriterion& criterion_met, PairForces& out,
+                                PairHistory& history) {
+  simd_target_in_use();  // chooses the best target on first use
+  const detail::LanePassArgs args{
+      &p, &scene, &list, constants.data(), &criterion_met, &out, &history, constants.size() == 1};
+  const auto pass = scene.friction ? HWY_DYNAMIC_DISPATCH(LanePassWithFriction)
+                                   : HWY_DYNAMIC_DISPATCH(LanePassWithoutFriction);
+  const std::size_t n = p.size();
+  constexpr std::size_t kChunk = 64;  // particles per scheduling unit, as the scalar pass
+  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  std::size_t contacts = 0, bonds = 0, formed = 0, broken = 0;
+  double max_overlap = 0.0, max_fraction = 0.0;
+#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) \
+    reduction(+ : contacts, bonds, formed, broken) reduction(max : max_overlap, max_fraction)
+  for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
+    const ContactSummary part = pass(args, chunk * kChunk, std::min(n, (chunk + 1) * kChunk));
+    contacts += part.contacts;
+    bonds += part.bonds;
+    formed += part.bonds_formed;
+    broken += part.bonds_broken;
+    max_overlap = std::max(max_overlap, part.max_overlap);
+    max_fraction = std::max(max_fraction, part.max_overlap_fraction);
+  }
+  ContactSummary summary;
+  summary.contacts = contacts;
+  summary.bonds = bonds;
+  summary.bonds_formed = formed;
+  summary.bonds_broken = broken;
+  summary.max_overlap = max_overlap;
+  summary.max_overlap_fraction = max_fraction;
+  return summary;
+}
+
+}  // namespace bondem
+#endif  // HWY_ONCE

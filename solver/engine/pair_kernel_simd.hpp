@@ -1,0 +1,76 @@
+#pragma once
+/// @file pair_kernel_simd.hpp
+/// Pass 1 of the force kernels (compute_pair_forces in contact_kernel.hpp) in SIMD lanes, one
+/// candidate pair per lane, for the runs whose every pair has a vector form (simd_pass_applies):
+/// the Hertz + bond law with alpha_adh = 1 (both adhesion inputs, every bonding criterion) and
+/// Mindlin-Coulomb friction. Other runs (the Hooke law, alpha_adh != 1, which needs std::pow,
+/// sJKR and JKR cohesion, rolling resistance, heat conduction) take the scalar pass.
+///
+/// Compiled for several instruction sets through Google Highway and chosen at run time
+/// (select_simd_target). Every target gives the same bytes: the lanes perform the same IEEE
+/// operations in the same order on every target, scalar included (contact_lanes-inl.h).
+
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "solver/engine/contact_kernel.hpp"
+
+namespace bondem {
+
+/// An instruction set of the SIMD pass; kAuto is the best this CPU supports.
+enum class SimdTarget { kAuto, kScalar, kSse4, kAvx2, kAvx512 };
+
+/// The target named @p name (auto, scalar, sse4, avx2, avx512), or none.
+std::optional<SimdTarget> parse_simd_target(std::string_view name);
+
+/// The name parse_simd_target reads.
+const char* simd_target_name(SimdTarget target);
+
+/// The targets compiled in and supported by this CPU, best last (kAuto not included).
+std::vector<SimdTarget> supported_simd_targets();
+
+/// Runs the SIMD pass on @p target from now on (process-wide; kAuto: the best supported).
+/// Throws std::invalid_argument naming the supported targets when this CPU lacks @p target.
+void select_simd_target(SimdTarget target);
+
+/// The target the SIMD pass runs on now (never kAuto).
+SimdTarget simd_target_in_use();
+
+/// Why a run with normal law @p law, material-pair table @p pairs and heat conduction
+/// (@p thermal) takes the scalar pass (e.g. "JKR cohesion"), or nullptr when its
+/// pairs take the SIMD pass.
+const char* scalar_pass_reason(const NormalLawSpec& law, const std::vector<PairCoefficients>& pairs,
+                               bool thermal);
+
+/// Whether the forces of @p scene's pairs take the SIMD pass (scalar_pass_reason gives none).
+bool simd_pass_applies(const Scene& scene);
+
+/// A material pair's constants in the form the lanes use (contact_lanes-inl.h).
+struct LanePairConstants {
+  double four_thirds_e = 0.0;        ///< (4/3) E*
+  double two_e = 0.0;                ///< 2 E*
+  double two_xi_contact = 0.0;       ///< 2 xi_con
+  double two_xi_bond = 0.0;          ///< 2 xi_bond
+  double equilibrium_overlap = 0.0;  ///< delta_eq when given (else computed per pair)
+  double adhesion_stiffness = 0.0;   ///< k_adh when given (else computed per pair)
+  double stiffness_input = 0.0;      ///< 1 where k_adh is the input, 0 where delta_eq is
+  double critical_ratio = 0.0;       ///< delta_crit / delta_eq
+  double eight_g = 0.0;              ///< 8 G*, Mindlin's k_t = 8 G* a
+  double tangential_ratio = 0.0;     ///< sqrt(4 G* / E*) = sqrt(k_t / k_con)
+  double friction = 0.0;             ///< mu
+};
+
+/// The lane constants of every material pair of @p scene, in pair_table order.
+std::vector<LanePairConstants> lane_pair_constants(const Scene& scene);
+
+/// Pass 1 as compute_pair_forces<kFriction = scene.friction, kModels = false> with the Hertz +
+/// bond law, in lanes of the selected target. Requires simd_pass_applies(scene).
+ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const NeighborList& list,
+                                std::span<const LanePairConstants> constants,
+                                const BondingCriterion& criterion_met, PairForces& out,
+                                PairHistory& history);
+
+}  // namespace bondem
