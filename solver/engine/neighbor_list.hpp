@@ -96,6 +96,12 @@ class NeighborList {
   /// Second particle j of pair k.
   std::size_t second(std::uint32_t k) const { return second_[k]; }
 
+  /// Image code of pair k: separation() adds shift_table()[image(k)].
+  std::uint8_t image(std::uint32_t k) const { return image_[k]; }
+
+  /// The periodic shifts by image code.
+  const std::array<Eigen::Vector3d, 27>& shift_table() const { return shifts_; }
+
   /// The pairs of particle @p i: @p as_first(k) for each pair in which it is the first member,
   /// then @p as_second(k) for each in which it is the second, each in list order. Serial; one
   /// fixed order per particle, so sums over it are the same bytes for any thread count.

@@ -28,6 +28,11 @@ struct LanePassArgs {
   PairForces* out;
   PairHistory* history;
   bool uniform;  ///< one material pair: constants[0] for every lane
+  /// Every pair's bonding criterion, when the same for all: 0 never, 1 always; -1: per pair.
+  int uniform_criterion;
+  const double* shift_x;  ///< periodic shifts by image code (NeighborList::shift_table)
+  const double* shift_y;
+  const double* shift_z;
 };
 }  // namespace bondem::detail
 #endif
@@ -40,16 +45,17 @@ namespace hn = hwy::HWY_NAMESPACE;
 /// enough to keep the block's inputs in L1.
 constexpr std::uint32_t kLaneBlock = 64;
 
-/// A block of pairs gathered from the particle arrays into lane order. Lanes past the block's
-/// last pair hold a pair far apart (no contact), so whole vectors can be evaluated.
+/// A block of pairs in lane order: which particles (gathered by the lanes) and, where they are
+/// not the same for every pair, the bonding criterion and the material pair's constants. Lanes
+/// past the block's last pair repeat particle 0 and are masked out.
 struct PairBlock {
   static constexpr int kConstants = 11;
-  HWY_ALIGN double dx[kLaneBlock], dy[kLaneBlock], dz[kLaneBlock];
+  // The pair's kinematics, gathered by a scalar loop (cheaper than vector gathers here).
+  HWY_ALIGN double dx[kLaneBlock], dy[kLaneBlock], dz[kLaneBlock];  ///< x_j - x_i (image of j)
   HWY_ALIGN double ri[kLaneBlock], rj[kLaneBlock], mi[kLaneBlock], mj[kLaneBlock];
   HWY_ALIGN double dvx[kLaneBlock], dvy[kLaneBlock], dvz[kLaneBlock];  ///< v_j - v_i
   HWY_ALIGN double wix[kLaneBlock], wiy[kLaneBlock], wiz[kLaneBlock];
   HWY_ALIGN double wjx[kLaneBlock], wjy[kLaneBlock], wjz[kLaneBlock];
-  HWY_ALIGN double sx[kLaneBlock], sy[kLaneBlock], sz[kLaneBlock];  ///< stored springs
   HWY_ALIGN double criterion[kLaneBlock];  ///< 1 where the pair may bond now
   HWY_ALIGN double bonded[kLaneBlock];     ///< out: 1 where the pair is bonded after the pass
   /// Per-lane LanePairConstants, filled only when the scene has several material pairs.
@@ -72,59 +78,83 @@ inline void put_constants(PairBlock& b, std::uint32_t s, const LanePairConstants
   for (int v = 0; v < PairBlock::kConstants; ++v) b.constant[v][s] = values[v];
 }
 
-/// Gathers pair k = (i, j) into lane @p s of @p b.
+/// Particle i's values that every pair of its row reads, loaded once per row.
+struct RowParticle {
+  double x, y, z, radius, mass, vx, vy, vz, wx, wy, wz;
+};
+
+/// Puts pair k = (i, j), i's values in @p i_values, into lane @p s of @p b.
 template <bool kFriction>
 HWY_INLINE void pack_pair(const detail::LanePassArgs& a, PairBlock& b, std::uint32_t s,
-                          std::size_t i, std::size_t j, std::uint32_t k) {
+                          const RowParticle& row, std::size_t i, std::size_t j, std::uint32_t k) {
   const Particles& p = *a.particles;
-  const Eigen::Vector3d d = a.list->separation(p, i, j, k);
-  b.dx[s] = d.x();
-  b.dy[s] = d.y();
-  b.dz[s] = d.z();
-  b.ri[s] = p.radius[i];
-  b.rj[s] = p.radius[j];
-  b.mi[s] = p.mass[i];
-  b.mj[s] = p.mass[j];
-  b.dvx[s] = p.vx[j] - p.vx[i];
-  b.dvy[s] = p.vy[j] - p.vy[i];
-  b.dvz[s] = p.vz[j] - p.vz[i];
-  const PairCoefficients& c = a.scene->pair(p.material[i], p.material[j]);
-  b.criterion[s] = (*a.criterion)(c, i, j, k) ? 1.0 : 0.0;
+  const double* HWY_RESTRICT x = p.x.data();
+  const double* HWY_RESTRICT y = p.y.data();
+  const double* HWY_RESTRICT z = p.z.data();
+  const std::uint8_t image = a.list->image(k);
+  b.dx[s] = x[j] - row.x + a.shift_x[image];
+  b.dy[s] = y[j] - row.y + a.shift_y[image];
+  b.dz[s] = z[j] - row.z + a.shift_z[image];
+  b.ri[s] = row.radius;
+  b.rj[s] = p.radius.data()[j];
+  b.mi[s] = row.mass;
+  b.mj[s] = p.mass.data()[j];
+  b.dvx[s] = p.vx.data()[j] - row.vx;
+  b.dvy[s] = p.vy.data()[j] - row.vy;
+  b.dvz[s] = p.vz.data()[j] - row.vz;
+  if constexpr (kFriction) {
+    b.wix[s] = row.wx;
+    b.wiy[s] = row.wy;
+    b.wiz[s] = row.wz;
+    b.wjx[s] = p.wx.data()[j];
+    b.wjy[s] = p.wy.data()[j];
+    b.wjz[s] = p.wz.data()[j];
+  }
+  if (a.uniform_criterion < 0) {
+    const PairCoefficients& c = a.scene->pair(p.material[i], p.material[j]);
+    b.criterion[s] = (*a.criterion)(c, i, j, k) ? 1.0 : 0.0;
+  }
   if (!a.uniform) {
     put_constants(b, s,
                   a.constants[static_cast<std::size_t>(p.material[i] * a.scene->material_count +
                                                        p.material[j])]);
   }
-  if constexpr (kFriction) {
-    b.wix[s] = p.wx[i];
-    b.wiy[s] = p.wy[i];
-    b.wiz[s] = p.wz[i];
-    b.wjx[s] = p.wx[j];
-    b.wjy[s] = p.wy[j];
-    b.wjz[s] = p.wz[j];
-    b.sx[s] = a.history->sx[k];
-    b.sy[s] = a.history->sy[k];
-    b.sz[s] = a.history->sz[k];
-  }
 }
 
-/// Fills lanes [@p count, @p end) of @p b with a pair far apart, whose lanes evaluate to no
-/// contact without NaNs or denormals.
+/// Loads particle i's row values.
 template <bool kFriction>
+HWY_INLINE RowParticle row_particle(const Particles& p, std::size_t i) {
+  RowParticle r{p.x[i],  p.y[i],  p.z[i], p.radius[i], p.mass[i], p.vx[i],
+                p.vy[i], p.vz[i], 0.0,    0.0,         0.0};
+  if constexpr (kFriction) {
+    r.wx = p.wx[i];
+    r.wy = p.wy[i];
+    r.wz = p.wz[i];
+  }
+  return r;
+}
+
+/// Fills lanes [@p count, @p end) of @p b with a pair far apart (no contact, no NaN).
 HWY_INLINE void pad_block(PairBlock& b, std::uint32_t count, std::uint32_t end) {
   for (std::uint32_t s = count; s < end; ++s) {
     b.dx[s] = 1.0;
-    b.dy[s] = b.dz[s] = 0.0;
-    b.ri[s] = b.rj[s] = 0.0;
+    b.dy[s] = b.dz[s] = b.ri[s] = b.rj[s] = 0.0;
     b.mi[s] = b.mj[s] = 1.0;
     b.dvx[s] = b.dvy[s] = b.dvz[s] = 0.0;
+    b.wix[s] = b.wiy[s] = b.wiz[s] = b.wjx[s] = b.wjy[s] = b.wjz[s] = 0.0;
     b.criterion[s] = 0.0;
     for (int v = 0; v < PairBlock::kConstants; ++v) b.constant[v][s] = 0.0;
-    if constexpr (kFriction) {
-      b.wix[s] = b.wiy[s] = b.wiz[s] = b.wjx[s] = b.wjy[s] = b.wjz[s] = 0.0;
-      b.sx[s] = b.sy[s] = b.sz[s] = 0.0;
-    }
   }
+}
+
+/// @p valid (<= lanes) values from @p from: a whole vector, or the first lanes and zeros, never
+/// reading past @p from + valid.
+template <class D>
+HWY_INLINE hn::Vec<D> load_lanes(D d, const double* from, std::size_t valid) {
+  if (valid >= hn::Lanes(d)) return hn::LoadU(d, from);
+  HWY_ALIGN double padded[hn::MaxLanes(d)] = {};
+  for (std::size_t l = 0; l < valid; ++l) padded[l] = from[l];
+  return hn::Load(d, padded);
 }
 
 /// Stores @p v at @p to: the whole vector, or its first @p valid lanes.
@@ -207,7 +237,8 @@ HWY_INLINE void evaluate_block(const detail::LanePassArgs& a, PairBlock& b, std:
                     m_star, a_contact, positive_overlap, rate);
     V normal = h.force;
     V load = hn::Neg(h.force);
-    M bonded = hn::And(contact, hn::Load(d, b.criterion + s) > zero);
+    M bonded = hn::And(contact, a.uniform_criterion < 0 ? hn::Load(d, b.criterion + s) > zero
+                                                        : hn::Set(d, a.uniform_criterion) > zero);
     if (!hn::AllFalse(d, bonded)) {
       // Past delta_crit the bond of eq. 25 replaces the contact; delta_eq is the input, or
       // follows from k_adh by eq. 13: (k_adh / k_h)^2 with k_h^2 = ((4/3) E*)^2 r*.
@@ -246,7 +277,9 @@ HWY_INLINE void evaluate_block(const detail::LanePassArgs& a, PairBlock& b, std:
       const Lanes3<D> relative{dv.x + turn_j.x - turn_i.x, dv.y + turn_j.y - turn_i.y,
                                dv.z + turn_j.z - turn_i.z};
       const Lanes3<D> sliding = tangential_part(relative, n);
-      Lanes3<D> spring{hn::Load(d, b.sx + s), hn::Load(d, b.sy + s), hn::Load(d, b.sz + s)};
+      Lanes3<D> spring{load_lanes(d, history.sx.data() + k, valid),
+                       load_lanes(d, history.sy.data() + k, valid),
+                       load_lanes(d, history.sz.data() + k, valid)};
       const V k_t = constant(8, c0.eight_g, s) * a_contact;
       const V d_t =
           constant(2, c0.two_xi_contact, s) * h.root_mk * constant(9, c0.tangential_ratio, s);
@@ -295,15 +328,19 @@ ContactSummary LanePass(const detail::LanePassArgs& a, std::size_t first_row,
   LaneTally tally;
   ContactSummary summary;
   std::size_t row = first_row;
+  RowParticle row_values = row_particle<kFriction>(*a.particles, row);
   const std::uint32_t pairs_end = row_begin[last_row];
   for (std::uint32_t block = row_begin[first_row]; block < pairs_end; block += kLaneBlock) {
     const std::uint32_t count = std::min(pairs_end - block, kLaneBlock);
     for (std::uint32_t s = 0; s < count; ++s) {
       const std::uint32_t k = block + s;
-      while (row_begin[row + 1] <= k) ++row;
-      pack_pair<kFriction>(a, b, s, row, a.list->second(k), k);
+      if (row_begin[row + 1] <= k) {
+        while (row_begin[row + 1] <= k) ++row;
+        row_values = row_particle<kFriction>(*a.particles, row);
+      }
+      pack_pair<kFriction>(a, b, s, row_values, row, a.list->second(k), k);
     }
-    pad_block<kFriction>(b, count, (count + lanes - 1) / lanes * lanes);
+    pad_block(b, count, (count + lanes - 1) / lanes * lanes);
     evaluate_block<kFriction>(a, b, block, count, tally);
     for (std::uint32_t s = 0; s < count; ++s) {
       const std::uint8_t now = b.bonded[s] > 0.0 ? 1 : 0;
@@ -447,8 +484,31 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
                                 const BondingCriterion& criterion_met, PairForces& out,
                                 PairHistory& history) {
   simd_target_in_use();  // chooses the best target on first use
-  const detail::LanePassArgs args{
-      &p, &scene, &list, constants.data(), &criterion_met, &out, &history, constants.size() == 1};
+  double shift_x[27], shift_y[27], shift_z[27];
+  for (std::size_t code = 0; code < 27; ++code) {
+    shift_x[code] = list.shift_table()[code].x();
+    shift_y[code] = list.shift_table()[code].y();
+    shift_z[code] = list.shift_table()[code].z();
+  }
+  // The criterion is the same for every pair when every material pair never or always bonds.
+  const auto all = [&](BondCriterion criterion) {
+    return std::all_of(scene.pair_table.begin(), scene.pair_table.end(),
+                       [&](const PairCoefficients& c) { return c.criterion == criterion; });
+  };
+  const int uniform_criterion =
+      all(BondCriterion::kNever) ? 0 : (all(BondCriterion::kAlways) ? 1 : -1);
+  const detail::LanePassArgs args{&p,
+                                  &scene,
+                                  &list,
+                                  constants.data(),
+                                  &criterion_met,
+                                  &out,
+                                  &history,
+                                  constants.size() == 1,
+                                  uniform_criterion,
+                                  shift_x,
+                                  shift_y,
+                                  shift_z};
   const auto pass = scene.friction ? HWY_DYNAMIC_DISPATCH(LanePassWithFriction)
                                    : HWY_DYNAMIC_DISPATCH(LanePassWithoutFriction);
   const std::size_t n = p.size();
