@@ -28,6 +28,7 @@ struct LanePassArgs {
   PairForces* out;
   PairHistory* history;
   bool uniform;  ///< one material pair: constants[0] for every lane
+  bool rolling;  ///< some material pair has rolling resistance: pairs store a rolling torque
   /// Every pair's bonding criterion, when the same for all: 0 never, 1 always; -1: per pair.
   int uniform_criterion;
   const double* shift_x;  ///< periodic shifts by image code (NeighborList::shift_table)
@@ -49,7 +50,7 @@ constexpr std::uint32_t kLaneBlock = 64;
 /// not the same for every pair, the bonding criterion and the material pair's constants. Lanes
 /// past the block's last pair repeat particle 0 and are masked out.
 struct PairBlock {
-  static constexpr int kConstants = 11;
+  static constexpr int kConstants = 12;
   // The pair's kinematics, gathered by a scalar loop (cheaper than vector gathers here).
   HWY_ALIGN double dx[kLaneBlock], dy[kLaneBlock], dz[kLaneBlock];  ///< x_j - x_i (image of j)
   HWY_ALIGN double ri[kLaneBlock], rj[kLaneBlock], mi[kLaneBlock], mj[kLaneBlock];
@@ -74,7 +75,8 @@ inline void put_constants(PairBlock& b, std::uint32_t s, const LanePairConstants
                                                 c.critical_ratio,
                                                 c.eight_g,
                                                 c.tangential_ratio,
-                                                c.friction};
+                                                c.friction,
+                                                c.rolling_friction};
   for (int v = 0; v < PairBlock::kConstants; ++v) b.constant[v][s] = values[v];
 }
 
@@ -216,6 +218,11 @@ HWY_INLINE void evaluate_block(const detail::LanePassArgs& a, PairBlock& b, std:
                            history.sx.data(), history.sy.data(), history.sz.data()}) {
           store_lanes(d, no_force, valid, to + k);
         }
+        if (a.rolling) {
+          for (double* to : {out.roll_x.data(), out.roll_y.data(), out.roll_z.data()}) {
+            store_lanes(d, no_force, valid, to + k);
+          }
+        }
       }
       continue;
     }
@@ -294,6 +301,17 @@ HWY_INLINE void evaluate_block(const detail::LanePassArgs& a, PairBlock& b, std:
       store_lanes(d, hn::IfThenElseZero(contact, spring.x), valid, history.sx.data() + k);
       store_lanes(d, hn::IfThenElseZero(contact, spring.y), valid, history.sy.data() + k);
       store_lanes(d, hn::IfThenElseZero(contact, spring.z), valid, history.sz.data() + k);
+      if (a.rolling) {
+        // A solid sphere's I = 0.4 m r^2 (Particles::inverse_inertia).
+        const V two_fifths = hn::Set(d, 0.4);
+        const Lanes3<D> roll =
+            rolling_lanes(d, contact, constant(11, c0.rolling_friction, s), r_star, load,
+                          two_fifths * mi * ri * ri, two_fifths * mj * rj * rj,
+                          {spin_i.x - spin_j.x, spin_i.y - spin_j.y, spin_i.z - spin_j.z}, dt);
+        store_lanes(d, roll.x, valid, out.roll_x.data() + k);
+        store_lanes(d, roll.y, valid, out.roll_y.data() + k);
+        store_lanes(d, roll.z, valid, out.roll_z.data() + k);
+      }
     }
     store_lanes(d, hn::IfThenElseZero(contact, force.x), valid, out.fx.data() + k);
     store_lanes(d, hn::IfThenElseZero(contact, force.y), valid, out.fy.data() + k);
@@ -447,7 +465,9 @@ const char* scalar_pass_reason(const NormalLawSpec& law, const std::vector<PairC
     if (c.alpha != 1.0) return "an adhesion exponent alpha != 1 (std::pow)";
     if (c.cohesion == CohesionModel::kSjkr) return "sJKR cohesion";
     if (c.cohesion == CohesionModel::kJkr) return "JKR cohesion";
-    if (c.rolling_friction != 0.0) return "rolling resistance";
+    if (c.rolling_friction != 0.0 && c.rolling_model == RollingModel::kEpsd) {
+      return "EPSD rolling resistance";
+    }
   }
   return nullptr;
 }
@@ -474,6 +494,7 @@ std::vector<LanePairConstants> lane_pair_constants(const Scene& scene) {
     l.tangential_ratio =
         c.effective_modulus > 0.0 ? std::sqrt(4.0 * c.shear_modulus / c.effective_modulus) : 0.0;
     l.friction = c.friction;
+    l.rolling_friction = c.rolling_friction;
     constants.push_back(l);
   }
   return constants;
@@ -505,6 +526,7 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
                                   &out,
                                   &history,
                                   constants.size() == 1,
+                                  !out.roll_x.empty(),
                                   uniform_criterion,
                                   shift_x,
                                   shift_y,

@@ -2,9 +2,10 @@
 /// @file pair_kernel_simd.hpp
 /// Pass 1 of the force kernels (compute_pair_forces in contact_kernel.hpp) in SIMD lanes, one
 /// candidate pair per lane, for the runs whose every pair has a vector form (simd_pass_applies):
-/// the Hertz + bond law with alpha_adh = 1 (both adhesion inputs, every bonding criterion) and
-/// Mindlin-Coulomb friction. Other runs (the Hooke law, alpha_adh != 1, which needs std::pow,
-/// sJKR and JKR cohesion, rolling resistance, heat conduction) take the scalar pass.
+/// the Hertz + bond law with alpha_adh = 1 (both adhesion inputs, every bonding criterion),
+/// Mindlin-Coulomb friction and constant-torque rolling resistance. Other runs (the Hooke law,
+/// alpha_adh != 1, which needs std::pow, sJKR and JKR cohesion, EPSD rolling resistance, heat
+/// conduction) take the scalar pass.
 ///
 /// Compiled for several instruction sets through Google Highway and chosen at run time
 /// (select_simd_target). Every target gives the same bytes: the lanes perform the same IEEE
@@ -61,6 +62,7 @@ struct LanePairConstants {
   double eight_g = 0.0;              ///< 8 G*, Mindlin's k_t = 8 G* a
   double tangential_ratio = 0.0;     ///< sqrt(4 G* / E*) = sqrt(k_t / k_con)
   double friction = 0.0;             ///< mu
+  double rolling_friction = 0.0;     ///< mu_r (constant-torque rolling resistance)
 };
 
 /// The lane constants of every material pair of @p scene, in pair_table order.

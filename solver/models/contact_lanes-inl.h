@@ -4,6 +4,8 @@
 /// The damped Hertz contact and bond (bond_law.hpp, eq. 15, 22-26, alpha_adh = 1) and the
 /// Mindlin-Coulomb tangential spring (tangential_law.hpp) over SIMD lanes, one contact per lane.
 ///
+/// Rolling resistance: the constant directional torque (rolling_law.hpp, Ai et al. model A).
+///
 /// Same laws as the scalar headers, written with fewer roots and divisions: with the contact
 /// radius a = sqrt(r* delta),
 ///   Hertz elastic force   k_h delta^1.5 = (4/3) E* a delta     (k_h = (4/3) E* sqrt(r*))
@@ -147,6 +149,31 @@ HWY_INLINE Lanes3<D> tangential_lanes(D d, hn::Mask<D> active, hn::Vec<D> k_t, h
   }
   spring = s;
   return force;
+}
+
+/// Constant directional rolling torque on i (rolling_torque of rolling_law.hpp, Ai et al. 2011
+/// model type A) on each lane: -mu_r r* load along the relative spin @p relative_spin
+/// (omega_i - omega_j), capped at I* |omega_rel| / dt so that one step cannot reverse it. The
+/// pair's inertia I* = I_i I_j / (I_i + I_j) comes from @p inertia_i, @p inertia_j. Zero where
+/// the lane is outside @p active, mu_r = 0 or the spins agree.
+template <class D>
+HWY_INLINE Lanes3<D> rolling_lanes(D d, hn::Mask<D> active, hn::Vec<D> rolling_friction,
+                                   hn::Vec<D> r_star, hn::Vec<D> load, hn::Vec<D> inertia_i,
+                                   hn::Vec<D> inertia_j, const Lanes3<D>& relative_spin,
+                                   hn::Vec<D> dt) {
+  const hn::Vec<D> zero = hn::Zero(d);
+  const hn::Vec<D> spin_sq = dot(relative_spin, relative_spin);
+  const hn::Mask<D> rolls = hn::And(active, hn::And(rolling_friction != zero, spin_sq > zero));
+  if (hn::AllFalse(d, rolls)) return {zero, zero, zero};
+  const hn::Vec<D> one = hn::Set(d, 1.0);
+  const hn::Vec<D> spin = hn::Sqrt(hn::IfThenElse(rolls, spin_sq, one));
+  const hn::Vec<D> inertia_sum = hn::IfThenElse(rolls, inertia_i + inertia_j, one);
+  const hn::Vec<D> inertia = inertia_i * inertia_j / inertia_sum;
+  const hn::Vec<D> resistance = rolling_friction * r_star * load;
+  const hn::Vec<D> spin_limit = inertia * spin / dt;
+  const hn::Vec<D> magnitude = hn::IfThenElse(spin_limit < resistance, spin_limit, resistance);
+  const hn::Vec<D> scale = hn::IfThenZeroElse(hn::Not(rolls), hn::Neg(magnitude / spin));
+  return {relative_spin.x * scale, relative_spin.y * scale, relative_spin.z * scale};
 }
 
 }  // namespace bondem::HWY_NAMESPACE
