@@ -52,6 +52,7 @@ constexpr std::uint32_t kLaneBlock = 64;
 struct PairBlock {
   static constexpr int kConstants = 12;
   // The pair's kinematics, gathered by a scalar loop (cheaper than vector gathers here).
+  std::uint32_t first[kLaneBlock], second[kLaneBlock];              ///< i and j
   HWY_ALIGN double dx[kLaneBlock], dy[kLaneBlock], dz[kLaneBlock];  ///< x_j - x_i (image of j)
   HWY_ALIGN double ri[kLaneBlock], rj[kLaneBlock], mi[kLaneBlock], mj[kLaneBlock];
   HWY_ALIGN double dvx[kLaneBlock], dvy[kLaneBlock], dvz[kLaneBlock];  ///< v_j - v_i
@@ -80,60 +81,77 @@ inline void put_constants(PairBlock& b, std::uint32_t s, const LanePairConstants
   for (int v = 0; v < PairBlock::kConstants; ++v) b.constant[v][s] = values[v];
 }
 
-/// Particle i's values that every pair of its row reads, loaded once per row.
-struct RowParticle {
-  double x, y, z, radius, mass, vx, vy, vz, wx, wy, wz;
-};
-
-/// Puts pair k = (i, j), i's values in @p i_values, into lane @p s of @p b.
+/// Gathers the kinematics of the block's @p count pairs, i = b.first[s], j = b.second[s], into
+/// lane order: a few short loops, each with few streams, keep the pointers in registers.
 template <bool kFriction>
-HWY_INLINE void pack_pair(const detail::LanePassArgs& a, PairBlock& b, std::uint32_t s,
-                          const RowParticle& row, std::size_t i, std::size_t j, std::uint32_t k) {
+HWY_INLINE void pack_block(const detail::LanePassArgs& a, PairBlock& b, std::uint32_t first_k,
+                           std::uint32_t count) {
   const Particles& p = *a.particles;
-  const double* HWY_RESTRICT x = p.x.data();
-  const double* HWY_RESTRICT y = p.y.data();
-  const double* HWY_RESTRICT z = p.z.data();
-  const std::uint8_t image = a.list->image(k);
-  b.dx[s] = x[j] - row.x + a.shift_x[image];
-  b.dy[s] = y[j] - row.y + a.shift_y[image];
-  b.dz[s] = z[j] - row.z + a.shift_z[image];
-  b.ri[s] = row.radius;
-  b.rj[s] = p.radius.data()[j];
-  b.mi[s] = row.mass;
-  b.mj[s] = p.mass.data()[j];
-  b.dvx[s] = p.vx.data()[j] - row.vx;
-  b.dvy[s] = p.vy.data()[j] - row.vy;
-  b.dvz[s] = p.vz.data()[j] - row.vz;
+  const std::uint32_t* HWY_RESTRICT first = b.first;
+  const std::uint32_t* HWY_RESTRICT second = b.second;
+  {
+    const double* HWY_RESTRICT x = p.x.data();
+    const double* HWY_RESTRICT y = p.y.data();
+    const double* HWY_RESTRICT z = p.z.data();
+    for (std::uint32_t s = 0; s < count; ++s) {
+      b.dx[s] = x[second[s]] - x[first[s]];
+      b.dy[s] = y[second[s]] - y[first[s]];
+      b.dz[s] = z[second[s]] - z[first[s]];
+    }
+    // Periodic images are rare: most pairs add no shift.
+    for (std::uint32_t s = 0; s < count; ++s) {
+      const std::uint8_t image = a.list->image(first_k + s);
+      if (image == 0) continue;
+      b.dx[s] += a.shift_x[image];
+      b.dy[s] += a.shift_y[image];
+      b.dz[s] += a.shift_z[image];
+    }
+  }
+  {
+    const double* HWY_RESTRICT radius = p.radius.data();
+    const double* HWY_RESTRICT mass = p.mass.data();
+    for (std::uint32_t s = 0; s < count; ++s) {
+      b.ri[s] = radius[first[s]];
+      b.rj[s] = radius[second[s]];
+      b.mi[s] = mass[first[s]];
+      b.mj[s] = mass[second[s]];
+    }
+  }
+  {
+    const double* HWY_RESTRICT vx = p.vx.data();
+    const double* HWY_RESTRICT vy = p.vy.data();
+    const double* HWY_RESTRICT vz = p.vz.data();
+    for (std::uint32_t s = 0; s < count; ++s) {
+      b.dvx[s] = vx[second[s]] - vx[first[s]];
+      b.dvy[s] = vy[second[s]] - vy[first[s]];
+      b.dvz[s] = vz[second[s]] - vz[first[s]];
+    }
+  }
   if constexpr (kFriction) {
-    b.wix[s] = row.wx;
-    b.wiy[s] = row.wy;
-    b.wiz[s] = row.wz;
-    b.wjx[s] = p.wx.data()[j];
-    b.wjy[s] = p.wy.data()[j];
-    b.wjz[s] = p.wz.data()[j];
+    const double* HWY_RESTRICT wx = p.wx.data();
+    const double* HWY_RESTRICT wy = p.wy.data();
+    const double* HWY_RESTRICT wz = p.wz.data();
+    for (std::uint32_t s = 0; s < count; ++s) {
+      b.wix[s] = wx[first[s]];
+      b.wiy[s] = wy[first[s]];
+      b.wiz[s] = wz[first[s]];
+      b.wjx[s] = wx[second[s]];
+      b.wjy[s] = wy[second[s]];
+      b.wjz[s] = wz[second[s]];
+    }
   }
-  if (a.uniform_criterion < 0) {
-    const PairCoefficients& c = a.scene->pair(p.material[i], p.material[j]);
-    b.criterion[s] = (*a.criterion)(c, i, j, k) ? 1.0 : 0.0;
+  if (a.uniform_criterion < 0 || !a.uniform) {
+    for (std::uint32_t s = 0; s < count; ++s) {
+      const std::size_t i = first[s];
+      const std::size_t j = second[s];
+      const std::size_t pair =
+          static_cast<std::size_t>(p.material[i] * a.scene->material_count + p.material[j]);
+      if (a.uniform_criterion < 0) {
+        b.criterion[s] = (*a.criterion)(a.scene->pair_table[pair], i, j, first_k + s) ? 1.0 : 0.0;
+      }
+      if (!a.uniform) put_constants(b, s, a.constants[pair]);
+    }
   }
-  if (!a.uniform) {
-    put_constants(b, s,
-                  a.constants[static_cast<std::size_t>(p.material[i] * a.scene->material_count +
-                                                       p.material[j])]);
-  }
-}
-
-/// Loads particle i's row values.
-template <bool kFriction>
-HWY_INLINE RowParticle row_particle(const Particles& p, std::size_t i) {
-  RowParticle r{p.x[i],  p.y[i],  p.z[i], p.radius[i], p.mass[i], p.vx[i],
-                p.vy[i], p.vz[i], 0.0,    0.0,         0.0};
-  if constexpr (kFriction) {
-    r.wx = p.wx[i];
-    r.wy = p.wy[i];
-    r.wz = p.wz[i];
-  }
-  return r;
 }
 
 /// Fills lanes [@p count, @p end) of @p b with a pair far apart (no contact, no NaN).
@@ -346,18 +364,16 @@ ContactSummary LanePass(const detail::LanePassArgs& a, std::size_t first_row,
   LaneTally tally;
   ContactSummary summary;
   std::size_t row = first_row;
-  RowParticle row_values = row_particle<kFriction>(*a.particles, row);
   const std::uint32_t pairs_end = row_begin[last_row];
   for (std::uint32_t block = row_begin[first_row]; block < pairs_end; block += kLaneBlock) {
     const std::uint32_t count = std::min(pairs_end - block, kLaneBlock);
     for (std::uint32_t s = 0; s < count; ++s) {
       const std::uint32_t k = block + s;
-      if (row_begin[row + 1] <= k) {
-        while (row_begin[row + 1] <= k) ++row;
-        row_values = row_particle<kFriction>(*a.particles, row);
-      }
-      pack_pair<kFriction>(a, b, s, row_values, row, a.list->second(k), k);
+      while (row_begin[row + 1] <= k) ++row;
+      b.first[s] = static_cast<std::uint32_t>(row);
+      b.second[s] = static_cast<std::uint32_t>(a.list->second(k));
     }
+    pack_block<kFriction>(a, b, block, count);
     pad_block(b, count, (count + lanes - 1) / lanes * lanes);
     evaluate_block<kFriction>(a, b, block, count, tally);
     for (std::uint32_t s = 0; s < count; ++s) {
