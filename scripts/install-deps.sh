@@ -10,6 +10,7 @@ packages=(
   libvtk9-dev                         # VTK XML output for ParaView
   libyaml-cpp-dev libcli11-dev        # case files, command line
   libgtest-dev libbenchmark-dev       # tests, microbenchmarks
+  libhwy-dev                          # Google Highway: the SIMD pair pass, dispatched at run time
   gnuplot-nox                         # figures of the main job
 )
 
