@@ -124,7 +124,7 @@ expect_text("${err}" "2 particles, 1 thread (below 1024 particles" "serial banne
 expect_text("${out}" "threads = 1\n" "serial threads line")
 expect_success(run ${CASES}/powder_bed_packing_ci.yaml --threads 2 --set insert.0.count=2100
                --set time.end=3e-6 --output ${WORK}/many)
-expect_text("${err}" "2100 particles, 2 threads\n" "parallel banner")
+expect_text("${err}" "2100 particles, 2 threads, pair pass " "parallel banner")
 expect_text("${out}" "threads = 2\n" "parallel threads line")
 
 # A bed region with no volume (a case without a domain: the margins invert the default region)
