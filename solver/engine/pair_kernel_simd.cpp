@@ -336,11 +336,17 @@ HWY_INLINE void evaluate_block(const detail::LanePassArgs& a, PairBlock& b, std:
     store_lanes(d, hn::IfThenElseZero(contact, force.z), valid, out.fz.data() + k);
     tally.contacts += hn::CountTrue(d, contact);
     tally.bonds += hn::CountTrue(d, bonded);
-    // Largest overlap and overlap / smaller radius; max is exact, so any lane order agrees.
-    const V smaller = hn::IfThenElse(ri < rj, ri, rj);
-    const V fraction = positive_overlap / hn::IfThenElse(contact, smaller, one);
+    // Largest overlap and overlap / smaller radius; max is exact, so any lane order agrees. The
+    // division is made only where the ratio may exceed the lane's maximum m: a ratio that rounds
+    // above m has overlap > m r (1 + 2^-53), above m r rounded and shrunk by 2^-50.
     max_overlap = hn::IfThenElse(positive_overlap > max_overlap, positive_overlap, max_overlap);
-    max_fraction = hn::IfThenElse(fraction > max_fraction, fraction, max_fraction);
+    const V smaller = hn::IfThenElse(ri < rj, ri, rj);
+    const M may_exceed = positive_overlap > max_fraction * smaller * hn::Set(d, 1.0 - 0x1p-50);
+    if (!hn::AllFalse(d, may_exceed)) {
+      const V fraction = positive_overlap / hn::IfThenElse(may_exceed, smaller, one);
+      max_fraction =
+          hn::IfThenElse(hn::And(may_exceed, fraction > max_fraction), fraction, max_fraction);
+    }
   }
   HWY_ALIGN double lane_values[hn::MaxLanes(d)];
   hn::Store(max_overlap, d, lane_values);
