@@ -333,8 +333,9 @@ std::uint64_t case_fingerprint(const Case& c) {
 
 namespace {
 
-/// The checkpoint's payload, into @p payload.
-void put_payload(Writer& payload, const CheckpointView& checkpoint) {
+/// The checkpoint's payload, into @p payload; @p slips is the number of pairs
+/// checkpoint.for_each_slip visits.
+void put_payload(Writer& payload, const CheckpointView& checkpoint, std::uint64_t slips) {
   const Particles& p = checkpoint.particles;
   const StepperState& s = checkpoint.stepper;
   payload.put(checkpoint.case_fingerprint);
@@ -355,18 +356,21 @@ void put_payload(Writer& payload, const CheckpointView& checkpoint) {
     }
   };
   put_section(CheckpointSection::kParticle);
-  for (const auto* field : {&s.list.x0, &s.list.y0, &s.list.z0}) payload.put(*field);
+  for (const std::vector<double>* axis : checkpoint.build_positions) payload.put(*axis);
   payload.put(static_cast<std::int32_t>(p.walls));
   put_section(CheckpointSection::kWall);
   // Field by field: the struct's padding bytes are not part of the state.
-  payload.put(static_cast<std::uint64_t>(s.slips.size()));
-  for (const SlipRecord& slip : s.slips) {
+  payload.put(slips);
+  std::uint64_t visited = 0;
+  checkpoint.for_each_slip([&](const SlipRecord& slip) {
     payload.put(slip.first_id);
     payload.put(slip.second_id);
     for (const double v : {slip.sx, slip.sy, slip.sz, slip.rx, slip.ry, slip.rz}) payload.put(v);
     payload.put(slip.bonded);
     payload.put(slip.joined);
-  }
+    ++visited;
+  });
+  if (visited != slips) throw std::logic_error("checkpoint: the pairs' state changed its count");
   payload.put(s.boundaries);
   payload.put(s.bonds_formed);
   payload.put(s.bonds_broken);
@@ -386,9 +390,37 @@ void put_payload(Writer& payload, const CheckpointView& checkpoint) {
 
 }  // namespace
 
+CheckpointView checkpoint_view(const Checkpoint& checkpoint) {
+  const StepperState& s = checkpoint.stepper;
+  return {checkpoint.case_fingerprint,
+          checkpoint.particles,
+          s,
+          checkpoint.history,
+          {&s.list.x0, &s.list.y0, &s.list.z0},
+          [&s](const std::function<void(const SlipRecord&)>& visit) {
+            for (const SlipRecord& slip : s.slips) visit(slip);
+          }};
+}
+
+CheckpointView checkpoint_view(std::uint64_t case_fingerprint, const Particles& particles,
+                               const Stepper& stepper, const StepperState& state,
+                               const std::string& history) {
+  const NeighborList& list = stepper.neighbors();
+  return {case_fingerprint,
+          particles,
+          state,
+          history,
+          {&list.build_positions(0), &list.build_positions(1), &list.build_positions(2)},
+          [&stepper](const std::function<void(const SlipRecord&)>& visit) {
+            stepper.for_each_slip(visit);
+          }};
+}
+
 void write_checkpoint(const std::string& path, const CheckpointView& checkpoint) {
+  std::uint64_t slips = 0;
+  checkpoint.for_each_slip([&slips](const SlipRecord& /*slip*/) { ++slips; });
   Writer counter;
-  put_payload(counter, checkpoint);
+  put_payload(counter, checkpoint, slips);
   AtomicFile file(path, std::ios::binary);
   std::ostream& out = file.stream();
   out.write(kMagic, sizeof kMagic);
@@ -397,7 +429,7 @@ void write_checkpoint(const std::string& path, const CheckpointView& checkpoint)
   out.write(reinterpret_cast<const char*>(&version), sizeof version);
   out.write(reinterpret_cast<const char*>(&size), sizeof size);
   Writer payload(&out);
-  put_payload(payload, checkpoint);
+  put_payload(payload, checkpoint, slips);
   if (payload.size() != size) throw std::logic_error("checkpoint: the payload changed its size");
   const std::uint64_t checksum = payload.checksum();
   out.write(reinterpret_cast<const char*>(&checksum), sizeof checksum);
@@ -405,8 +437,7 @@ void write_checkpoint(const std::string& path, const CheckpointView& checkpoint)
 }
 
 void write_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
-  write_checkpoint(path, CheckpointView{checkpoint.case_fingerprint, checkpoint.particles,
-                                        checkpoint.stepper, checkpoint.history});
+  write_checkpoint(path, checkpoint_view(checkpoint));
 }
 
 namespace {

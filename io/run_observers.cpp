@@ -1,37 +1,86 @@
 #include "io/run_observers.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <array>
+#include <charconv>
 #include <cmath>
+#include <memory>
 #include <numeric>
 #include <stdexcept>
 #include <system_error>
 #include <utility>
+#include <variant>
 
 #include "io/atomic_file.hpp"
 #include "io/checkpoint.hpp"
 
 namespace bondem {
 
+namespace {
+
+/// Rows of text written to a stream a block at a time: one stream write per 64 KiB instead of one
+/// per value.
+class RowBuffer {
+ public:
+  explicit RowBuffer(std::ostream& out) : out_(out) {}
+  RowBuffer(const RowBuffer&) = delete;
+  RowBuffer& operator=(const RowBuffer&) = delete;
+  ~RowBuffer() = default;
+  void put(double value) { end_ = write_exact_text(end_, value); }
+  void put(std::int64_t value) { end_ = std::to_chars(end_, end_ + kIntegerChars, value).ptr; }
+  void put(char c) { *end_++ = c; }
+  /// After a row: write the block out when another row might not fit.
+  void end_row() {
+    if (static_cast<std::size_t>(end_ - data_.data()) > data_.size() - kRowChars) flush();
+  }
+  void flush() {
+    out_.write(data_.data(), end_ - data_.data());
+    end_ = data_.data();
+  }
+
+ private:
+  static constexpr std::size_t kIntegerChars = 21;  // -9223372036854775808
+  /// The longest row: id, ten values and a bond count, with their separators.
+  static constexpr std::size_t kRowChars = 2 * kIntegerChars + 10 * kExactTextChars + 12;
+  std::ostream& out_;
+  std::array<char, std::size_t{1} << 16U> data_{};
+  char* end_ = data_.data();
+};
+
+}  // namespace
+
 void write_final_state(const Particles& p, const std::string& path, const std::vector<int>& bonds) {
-  std::vector<std::size_t> order(p.size());
-  std::iota(order.begin(), order.end(), std::size_t{0});
+  // Indices fit 32 bits (the neighbor list stores them so): half the memory of size_t.
+  std::vector<std::uint32_t> order(p.size());
+  std::iota(order.begin(), order.end(), std::uint32_t{0});
   std::sort(order.begin(), order.end(),
-            [&](std::size_t a, std::size_t b) { return p.id[a] < p.id[b]; });
+            [&](std::uint32_t a, std::uint32_t b) { return p.id[a] < p.id[b]; });
   AtomicFile file(path);
   std::ostream& out = file.stream();
   const bool thermal = p.thermal() && bonds.size() == p.size();
   out << "id,x,y,z,vx,vy,vz,radius" << (thermal ? ",temperature,peak_temperature,bonds" : "")
       << '\n';
-  for (const std::size_t i : order) {
-    out << p.id[i] << ',' << exact_text(p.x[i]) << ',' << exact_text(p.y[i]) << ','
-        << exact_text(p.z[i]) << ',' << exact_text(p.vx[i]) << ',' << exact_text(p.vy[i]) << ','
-        << exact_text(p.vz[i]) << ',' << exact_text(p.radius[i]);
-    if (thermal) {
-      out << ',' << exact_text(p.temperature[i]) << ',' << exact_text(p.peak_temperature[i]) << ','
-          << bonds[i];
+  auto rows = std::make_unique<RowBuffer>(out);  // 64 KiB: not on the stack
+  for (const std::uint32_t i : order) {
+    rows->put(p.id[i]);
+    for (const double value : {p.x[i], p.y[i], p.z[i], p.vx[i], p.vy[i], p.vz[i], p.radius[i]}) {
+      rows->put(',');
+      rows->put(value);
     }
-    out << '\n';
+    if (thermal) {
+      for (const double value : {p.temperature[i], p.peak_temperature[i]}) {
+        rows->put(',');
+        rows->put(value);
+      }
+      rows->put(',');
+      rows->put(static_cast<std::int64_t>(bonds[i]));
+    }
+    rows->put('\n');
+    rows->end_row();
   }
+  rows->flush();
   file.commit();
 }
 
@@ -43,20 +92,75 @@ void HistoryFile::append(const std::string& text) {
   if (!stream_) throw std::runtime_error(path_ + ": write failed");
 }
 
+namespace {
+
+/// The scratch file of a LastGoodFile writing @p path: hidden, beside it, named like the
+/// temporaries remove_stale_outputs() clears (it is unlinked at once; a name can be left only by
+/// a kill between its creation and its unlinking).
+std::filesystem::path last_good_scratch(const std::string& path) {
+  return std::filesystem::path(path).parent_path() /
+         (std::string(kLastGoodScratch) + ".tmp." + std::to_string(::getpid()));
+}
+
+}  // namespace
+
 LastGoodFile::LastGoodFile(std::string path, const Particles& particles, const History& history)
     : path_(std::move(path)), history_(history) {
-  keep_last_good(particles, state_);
+  const std::filesystem::path scratch = last_good_scratch(path_);
+  scratch_.open(scratch, std::ios::in | std::ios::out | std::ios::binary | std::ios::trunc);
+  if (!scratch_) throw std::runtime_error(scratch.string() + ": cannot open for writing");
+  // The open stream keeps the file; its name is not needed any more.
+  std::error_code ignored;
+  std::filesystem::remove(scratch, ignored);
+  keep(particles);
+}
+
+void LastGoodFile::keep(const Particles& particles) {
+  scratch_.seekp(0);
+  const auto count = static_cast<std::uint64_t>(particles.size());
+  scratch_.write(reinterpret_cast<const char*>(&count), sizeof count);
+  for (const ParticleField& field : kParticleFields) {
+    if (!has(field, kLastGood)) continue;
+    std::visit(
+        [&](auto member) {
+          const auto& values = particles.*member;
+          scratch_.write(reinterpret_cast<const char*>(values.data()),
+                         static_cast<std::streamsize>(values.size() * sizeof values[0]));
+        },
+        field.member);
+  }
+  scratch_.flush();
+  if (!scratch_)
+    throw std::runtime_error(path_ + ": cannot keep the last good state (write failed)");
+}
+
+Particles LastGoodFile::kept() {
+  scratch_.seekg(0);
+  std::uint64_t count = 0;
+  scratch_.read(reinterpret_cast<char*>(&count), sizeof count);
+  Particles state;
+  for (const ParticleField& field : kParticleFields) {
+    if (!has(field, kLastGood)) continue;
+    std::visit(
+        [&](auto member) {
+          auto& values = state.*member;
+          values.resize(count);
+          scratch_.read(reinterpret_cast<char*>(values.data()),
+                        static_cast<std::streamsize>(values.size() * sizeof values[0]));
+        },
+        field.member);
+  }
+  if (!scratch_) throw std::runtime_error(path_ + ": cannot read the last good state back");
+  return state;
 }
 
 void LastGoodFile::after_step(const Simulation& simulation) {
   // A state is good once its history row is written: every value in it was finite.
-  if (history_.last_row_step() == simulation.step()) {
-    keep_last_good(simulation.scene().particles, state_);
-  }
+  if (history_.last_row_step() == simulation.step()) keep(simulation.scene().particles);
 }
 
 void LastGoodFile::interrupted(const Simulation& /*simulation*/, const Interruption& why) {
-  if (why.reason == StopReason::kBlowUp) write_final_state(state_, path_);
+  if (why.reason == StopReason::kBlowUp) write_final_state(kept(), path_);
 }
 
 VtkFrames::VtkFrames(const std::filesystem::path& directory, std::int64_t every)
@@ -133,10 +237,12 @@ void CheckpointFile::finish(const Simulation& simulation) {
 }
 
 void CheckpointFile::write(const Simulation& simulation) const {
-  // By reference: the particles are streamed to the file, not copied.
-  const StepperState state = simulation.stepper().save_state();
-  write_checkpoint(
-      path_, CheckpointView{fingerprint_, simulation.scene().particles, state, history_.text()});
+  // By reference: the particles, the list's build positions and the pairs' state are streamed
+  // to the file, not copied.
+  const Stepper& stepper = simulation.stepper();
+  const StepperState state = stepper.save_state(SavedArrays::kOmitted);
+  write_checkpoint(path_, checkpoint_view(fingerprint_, simulation.scene().particles, stepper,
+                                          state, history_.text()));
 }
 
 namespace {
@@ -188,14 +294,24 @@ void write_layer(const LayerMetrics& layer, const std::string& path) {
 
 }  // namespace
 
+namespace {
+
+/// The bond counts a final state lists: those of a thermal run; none otherwise (4 B a particle
+/// spared).
+std::vector<int> final_state_bonds(const Simulation& simulation) {
+  const Particles& p = simulation.scene().particles;
+  return p.thermal() ? bond_counts(p, simulation.stepper()) : std::vector<int>{};
+}
+
+}  // namespace
+
 EndOfRunFiles::EndOfRunFiles(std::filesystem::path directory, const RunAnalysis& analysis)
     : directory_(std::move(directory)), analysis_(analysis) {}
 
 void EndOfRunFiles::interrupted(const Simulation& simulation, const Interruption& why) {
   if (why.reason != StopReason::kStopRequested) return;
   const Particles& p = simulation.scene().particles;
-  write_final_state(p, (directory_ / "final_state.csv").string(),
-                    bond_counts(p, simulation.stepper()));
+  write_final_state(p, (directory_ / "final_state.csv").string(), final_state_bonds(simulation));
 }
 
 void EndOfRunFiles::finish(const Simulation& simulation) {
@@ -204,8 +320,7 @@ void EndOfRunFiles::finish(const Simulation& simulation) {
   OutputSet end_of_run(
       {directory_ / "final_state.csv", directory_ / "clusters.csv", directory_ / "layer.csv"});
   const Particles& p = simulation.scene().particles;
-  write_final_state(p, (directory_ / "final_state.csv").string(),
-                    bond_counts(p, simulation.stepper()));
+  write_final_state(p, (directory_ / "final_state.csv").string(), final_state_bonds(simulation));
   write_clusters(figures.clusters, (directory_ / "clusters.csv").string());
   if (figures.layer) write_layer(*figures.layer, (directory_ / "layer.csv").string());
   end_of_run.keep();

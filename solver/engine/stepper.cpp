@@ -107,31 +107,7 @@ void Stepper::deposit_laser(double laser_time) {
 
 std::vector<SlipRecord> Stepper::collect_slips() const {
   std::vector<SlipRecord> slips;
-  const Particles& p = scene_.particles;
-  const bool springs = scene_.friction;
-  const bool extended = !history_.joined.empty();
-  list_.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
-    const std::uint8_t bonded = pair_forces_.bonded[k];
-    const bool loaded =
-        springs && (history_.sx[k] != 0.0 || history_.sy[k] != 0.0 || history_.sz[k] != 0.0);
-    const bool held = extended && (history_.joined[k] != 0 || history_.rx[k] != 0.0 ||
-                                   history_.ry[k] != 0.0 || history_.rz[k] != 0.0);
-    if (!loaded && !held && bonded == 0) return;
-    SlipRecord slip{p.id[i], p.id[j], 0.0, 0.0, 0.0};
-    slip.bonded = bonded;
-    if (springs) {
-      slip.sx = history_.sx[k];
-      slip.sy = history_.sy[k];
-      slip.sz = history_.sz[k];
-    }
-    if (extended) {
-      slip.rx = history_.rx[k];
-      slip.ry = history_.ry[k];
-      slip.rz = history_.rz[k];
-      slip.joined = history_.joined[k];
-    }
-    slips.push_back(slip);
-  });
+  for_each_slip([&](const SlipRecord& slip) { slips.push_back(slip); });
   return slips;
 }
 
@@ -383,13 +359,17 @@ BlowUpError Stepper::diagnose_deep_boundary(std::ostringstream& message) const {
   return BlowUpError(message.str());
 }
 
-StepperState Stepper::save_state() const {
+StepperState Stepper::save_state(SavedArrays arrays) const {
   StepperState state;
   state.time = time_;
   state.step = step_count_;
   state.contacts = contacts_;
-  list_.save(state.list);
-  state.slips = collect_slips();
+  if (arrays == SavedArrays::kIncluded) {
+    list_.save(state.list);
+    state.slips = collect_slips();
+  } else {
+    state.list.builds = list_.build_count();
+  }
   state.bonds_formed = bonds_formed_;
   state.bonds_broken = bonds_broken_;
   state.laser_energy = laser_energy_;

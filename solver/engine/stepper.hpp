@@ -72,6 +72,9 @@ struct StepperState {
   double laser_missed = 0.0;      ///< absorbable laser energy that found no particle [J]
 };
 
+/// Whether Stepper::save_state() copies the arrays of the state.
+enum class SavedArrays { kIncluded, kOmitted };
+
 /// Advances a scene in time. Owns the neighbor list and per-pair force slots; the scene owns the
 /// particles. OpenMP-parallel; the state after any number of steps is the same bytes for any
 /// thread count.
@@ -91,8 +94,16 @@ class Stepper {
   /// when a value is not finite or an overlap exceeds scene.max_overlap_fraction of a radius.
   void step();
 
-  /// The state to checkpoint together with the particles.
-  StepperState save_state() const;
+  /// The state to checkpoint together with the particles. With @p arrays kOmitted, the list's
+  /// build positions and the pairs' state (StepperState::list.x0..z0 and slips) are left empty: a
+  /// writer then streams them from neighbors() and for_each_slip() instead of holding a copy
+  /// (24 B a particle and 72 B a pair with a spring).
+  StepperState save_state(SavedArrays arrays = SavedArrays::kIncluded) const;
+
+  /// Calls @p visit(const SlipRecord&) for every pair that carries state (a spring, an EPSD
+  /// rolling spring, a JKR hold or a bond), in list order: what save_state() puts in slips.
+  template <class Visit>
+  void for_each_slip(Visit&& visit) const;
 
   /// Simulated time [s].
   double time() const { return time_; }
@@ -171,5 +182,34 @@ class Stepper {
   double laser_power_ = 0.0;  ///< absorbed in the last evaluation [W]
   double laser_missed_power_ = 0.0;
 };
+
+template <class Visit>
+void Stepper::for_each_slip(Visit&& visit) const {
+  const Particles& p = scene_.particles;
+  const bool springs = scene_.friction;
+  const bool extended = !history_.joined.empty();
+  list_.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
+    const std::uint8_t bonded = pair_forces_.bonded[k];
+    const bool loaded =
+        springs && (history_.sx[k] != 0.0 || history_.sy[k] != 0.0 || history_.sz[k] != 0.0);
+    const bool held = extended && (history_.joined[k] != 0 || history_.rx[k] != 0.0 ||
+                                   history_.ry[k] != 0.0 || history_.rz[k] != 0.0);
+    if (!loaded && !held && bonded == 0) return;
+    SlipRecord slip{p.id[i], p.id[j], 0.0, 0.0, 0.0};
+    slip.bonded = bonded;
+    if (springs) {
+      slip.sx = history_.sx[k];
+      slip.sy = history_.sy[k];
+      slip.sz = history_.sz[k];
+    }
+    if (extended) {
+      slip.rx = history_.rx[k];
+      slip.ry = history_.ry[k];
+      slip.rz = history_.rz[k];
+      slip.joined = history_.joined[k];
+    }
+    visit(static_cast<const SlipRecord&>(slip));
+  });
+}
 
 }  // namespace bondem
