@@ -148,10 +148,41 @@ class Stepper {
   bool finish_step(double dt);
   void kick_spin(double half_dt);
   /// The per-pair state (springs, bond flags) of the pairs that have any, keyed by particle ids:
-  /// the one carry-over across list rebuilds (reordering included) and restarts.
+  /// what a checkpoint carries (save_state()).
   std::vector<SlipRecord> collect_slips() const;
-  /// Clean pair slots for the current list, refilled from @p slips by particle ids.
-  void apply_slips(std::vector<SlipRecord> slips);
+  /// The pairs' state on its way across a list build (reordering included) or from a checkpoint:
+  /// the pairs that have any, keyed by particle ids, each with its slot in the arrays it came
+  /// from. 24 B a pair besides those arrays, which a rebuild moves out of the stepper rather than
+  /// copies: no 72-B SlipRecord per loaded pair.
+  struct CarriedPairs {
+    struct Key {
+      std::int64_t first_id, second_id;
+      std::uint32_t slot;
+    };
+    std::vector<Key> keys;
+    PairHistory history;               ///< springs, rolling springs and JKR flags, by slot
+    std::vector<std::uint8_t> bonded;  ///< bond flags, by slot
+  };
+  /// @p slips (a checkpoint's) as carried pairs.
+  CarriedPairs carried_from(const std::vector<SlipRecord>& slips) const;
+  /// Take the pairs' state out of the stepper before a build: its history and bond flags move
+  /// into the result, and the per-pair forces, torque terms and heat flows, which the evaluation
+  /// after every build rewrites, are freed (56 B a pair with friction) for the keys to take
+  /// their place.
+  CarriedPairs release_pairs();
+  /// Clean pair slots for the current list, refilled from @p carried by particle ids; the force
+  /// slots are allocated once @p carried is freed, so that a rebuild's peak stays below a step's.
+  void carry_pairs(CarriedPairs carried);
+  /// Whether slot @p k of @p history and @p bonded holds state: a spring, an EPSD rolling spring,
+  /// a JKR hold or a bond.
+  bool carries_state(const PairHistory& history, const std::vector<std::uint8_t>& bonded,
+                     std::uint32_t k) const {
+    const bool loaded =
+        scene_.friction && (history.sx[k] != 0.0 || history.sy[k] != 0.0 || history.sz[k] != 0.0);
+    const bool held = !history.joined.empty() && (history.joined[k] != 0 || history.rx[k] != 0.0 ||
+                                                  history.ry[k] != 0.0 || history.rz[k] != 0.0);
+    return loaded || held || bonded[k] != 0;
+  }
   /// Rebuild the list (reordering the particles every reorder_interval builds), carrying the
   /// per-pair state over by ids.
   void rebuild_list();
@@ -189,14 +220,9 @@ void Stepper::for_each_slip(Visit&& visit) const {
   const bool springs = scene_.friction;
   const bool extended = !history_.joined.empty();
   list_.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
-    const std::uint8_t bonded = pair_forces_.bonded[k];
-    const bool loaded =
-        springs && (history_.sx[k] != 0.0 || history_.sy[k] != 0.0 || history_.sz[k] != 0.0);
-    const bool held = extended && (history_.joined[k] != 0 || history_.rx[k] != 0.0 ||
-                                   history_.ry[k] != 0.0 || history_.rz[k] != 0.0);
-    if (!loaded && !held && bonded == 0) return;
+    if (!carries_state(history_, pair_forces_.bonded, k)) return;
     SlipRecord slip{p.id[i], p.id[j], 0.0, 0.0, 0.0};
-    slip.bonded = bonded;
+    slip.bonded = pair_forces_.bonded[k];
     if (springs) {
       slip.sx = history_.sx[k];
       slip.sy = history_.sy[k];
