@@ -141,11 +141,17 @@ Stepper::CarriedPairs Stepper::carried_from(const std::vector<SlipRecord>& slips
   return carried;
 }
 
+void Stepper::release_pair_forces() {
+  std::vector<std::uint8_t> bonded = std::move(pair_forces_.bonded);
+  pair_forces_ = PairForces{};
+  pair_forces_.bonded = std::move(bonded);
+}
+
 Stepper::CarriedPairs Stepper::release_pairs() {
   CarriedPairs carried;
+  release_pair_forces();
   carried.bonded = std::move(pair_forces_.bonded);
   carried.history = std::move(history_);
-  pair_forces_ = PairForces{};
   history_ = PairHistory{};
   // Counted first: a vector grown by doubling would hold up to three times the keys while it
   // moves them.
@@ -286,6 +292,10 @@ bool Stepper::finish_step(double dt) {
 
 void Stepper::step() {
   const double dt = scene_.time_step;
+  if (pair_forces_.fx.size() != list_.pair_count()) {  // after release_pair_forces()
+    pair_forces_.resize(list_.pair_count(), scene_.friction, scene_.rolling(),
+                        scene_.particles.thermal());
+  }
   drift(dt);
   // The laser deposits at mid-step, so a beam on for T seconds delivers its power for T seconds
   // to within one step.

@@ -105,6 +105,12 @@ class Stepper {
   template <class Visit>
   void for_each_slip(Visit&& visit) const;
 
+  /// Free the per-pair forces, torque terms and heat flows of the last evaluation (56 B a pair
+  /// with friction; pair_forces() keeps only the bond flags) until the next step() evaluates them
+  /// again: the end of a run reads the state, the list, the springs and the bond flags, not
+  /// those, and its analysis then needs no memory beyond a step's.
+  void release_pair_forces();
+
   /// Simulated time [s].
   double time() const { return time_; }
   /// Steps taken.
