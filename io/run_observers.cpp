@@ -6,7 +6,6 @@
 #include <array>
 #include <charconv>
 #include <cmath>
-#include <memory>
 #include <numeric>
 #include <stdexcept>
 #include <system_error>
@@ -20,34 +19,36 @@ namespace bondem {
 
 namespace {
 
-/// Rows of text written to a stream a block at a time: one stream write per 64 KiB instead of one
-/// per value.
-class RowBuffer {
- public:
-  explicit RowBuffer(std::ostream& out) : out_(out) {}
-  RowBuffer(const RowBuffer&) = delete;
-  RowBuffer& operator=(const RowBuffer&) = delete;
-  ~RowBuffer() = default;
-  void put(double value) { end_ = write_exact_text(end_, value); }
-  void put(std::int64_t value) { end_ = std::to_chars(end_, end_ + kIntegerChars, value).ptr; }
-  void put(char c) { *end_++ = c; }
-  /// After a row: write the block out when another row might not fit.
-  void end_row() {
-    if (static_cast<std::size_t>(end_ - data_.data()) > data_.size() - kRowChars) flush();
-  }
-  void flush() {
-    out_.write(data_.data(), end_ - data_.data());
-    end_ = data_.data();
-  }
+/// Characters of a 64-bit integer at most: -9223372036854775808.
+constexpr std::size_t kIntegerChars = 21;
+/// Characters of a final-state row at most: id, nine values and a bond count, with separators.
+constexpr std::size_t kFinalRowChars = 2 * kIntegerChars + 9 * kExactTextChars + 11;
 
- private:
-  static constexpr std::size_t kIntegerChars = 21;  // -9223372036854775808
-  /// The longest row: id, ten values and a bond count, with their separators.
-  static constexpr std::size_t kRowChars = 2 * kIntegerChars + 10 * kExactTextChars + 12;
-  std::ostream& out_;
-  std::array<char, std::size_t{1} << 16U> data_{};
-  char* end_ = data_.data();
-};
+/// The final-state rows of particles order[first, last) at @p out, which has room for
+/// kFinalRowChars per row; returns the end.
+char* write_final_rows(const Particles& p, const std::vector<std::uint32_t>& order,
+                       std::size_t first, std::size_t last, const std::vector<int>& bonds,
+                       bool thermal, char* out) {
+  const auto put = [&out](double value) {
+    *out++ = ',';
+    out = write_exact_text(out, value);
+  };
+  for (std::size_t row = first; row < last; ++row) {
+    const std::uint32_t i = order[row];
+    out = std::to_chars(out, out + kIntegerChars, p.id[i]).ptr;
+    for (const double value : {p.x[i], p.y[i], p.z[i], p.vx[i], p.vy[i], p.vz[i], p.radius[i]}) {
+      put(value);
+    }
+    if (thermal) {
+      put(p.temperature[i]);
+      put(p.peak_temperature[i]);
+      *out++ = ',';
+      out = std::to_chars(out, out + kIntegerChars, bonds[i]).ptr;
+    }
+    *out++ = '\n';
+  }
+  return out;
+}
 
 }  // namespace
 
@@ -62,25 +63,26 @@ void write_final_state(const Particles& p, const std::string& path, const std::v
   const bool thermal = p.thermal() && bonds.size() == p.size();
   out << "id,x,y,z,vx,vy,vz,radius" << (thermal ? ",temperature,peak_temperature,bonds" : "")
       << '\n';
-  auto rows = std::make_unique<RowBuffer>(out);  // 64 KiB: not on the stack
-  for (const std::uint32_t i : order) {
-    rows->put(p.id[i]);
-    for (const double value : {p.x[i], p.y[i], p.z[i], p.vx[i], p.vy[i], p.vz[i], p.radius[i]}) {
-      rows->put(',');
-      rows->put(value);
+  // Formatting 17 digits is most of the time (10^6 rows, 7 million values): blocks of rows are
+  // formatted on every thread, then written in order. The bytes do not depend on the threads.
+  constexpr std::size_t kBlockRows = 4096;
+  const std::size_t rows = order.size();
+  const auto threads = static_cast<std::size_t>(threads_in_use(rows));
+  std::vector<std::vector<char>> text(threads, std::vector<char>(kBlockRows * kFinalRowChars));
+  std::vector<std::size_t> length(threads, 0);
+  for (std::size_t first = 0; first < rows; first += threads * kBlockRows) {
+#pragma omp parallel for schedule(static) num_threads(static_cast <int>(threads)) if (threads > 1)
+    for (std::size_t t = 0; t < threads; ++t) {
+      const std::size_t begin = std::min(rows, first + t * kBlockRows);
+      const std::size_t end = std::min(rows, begin + kBlockRows);
+      char* const start = text[t].data();
+      length[t] = static_cast<std::size_t>(
+          write_final_rows(p, order, begin, end, bonds, thermal, start) - start);
     }
-    if (thermal) {
-      for (const double value : {p.temperature[i], p.peak_temperature[i]}) {
-        rows->put(',');
-        rows->put(value);
-      }
-      rows->put(',');
-      rows->put(static_cast<std::int64_t>(bonds[i]));
+    for (std::size_t t = 0; t < threads; ++t) {
+      out.write(text[t].data(), static_cast<std::streamsize>(length[t]));
     }
-    rows->put('\n');
-    rows->end_row();
   }
-  rows->flush();
   file.commit();
 }
 
