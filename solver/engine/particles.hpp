@@ -98,6 +98,10 @@ struct Particles {
   std::size_t add(std::int64_t particle_id, std::int32_t material_index, double particle_radius,
                   double particle_mass, const double position[3], const double velocity[3]);
 
+  /// Room for @p count particles in every field in use, so that add() does not reallocate: a
+  /// vector grown by doubling holds up to twice its particles, and moves them at every growth.
+  void reserve(std::size_t count);
+
   /// Reorder every field marked kReordered so that new index k holds old particle order[k].
   void permute(const std::vector<std::uint32_t>& order);
 
@@ -261,6 +265,14 @@ inline std::size_t Particles::add(std::int64_t particle_id, std::int32_t materia
   radius[index] = particle_radius;
   mass[index] = particle_mass;
   return index;
+}
+
+inline void Particles::reserve(std::size_t count) {
+  for (const ParticleField& field : kParticleFields) {
+    if (!in_use(field, *this)) continue;
+    const std::size_t values = count * values_per_particle(field, *this);
+    std::visit([&](auto member) { (this->*member).reserve(values); }, field.member);
+  }
 }
 
 inline void Particles::permute(const std::vector<std::uint32_t>& order) {
