@@ -65,7 +65,7 @@ void write_final_state(const Particles& p, const std::string& path, const std::v
       << '\n';
   // Formatting 17 digits is most of the time (10^6 rows, 7 million values): blocks of rows are
   // formatted on every thread, then written in order. The bytes do not depend on the threads.
-  constexpr std::size_t kBlockRows = 4096;
+  constexpr std::size_t kBlockRows = 16384;
   const std::size_t rows = order.size();
   const auto threads = static_cast<std::size_t>(threads_in_use(rows));
   std::vector<std::vector<char>> text(threads, std::vector<char>(kBlockRows * kFinalRowChars));
