@@ -18,6 +18,8 @@ namespace bondem {
 namespace {
 
 constexpr char kMagic[8] = {'B', 'O', 'N', 'D', 'E', 'M', 'C', 'K'};
+/// Bytes before the payload: magic, version, payload size.
+constexpr std::size_t kHeaderBytes = sizeof kMagic + sizeof(std::uint32_t) + sizeof(std::uint64_t);
 
 /// FNV-1a, 64 bit: simple, dependency-free, and enough to catch truncation and bit rot.
 std::uint64_t fnv1a(const char* data, std::size_t size,
@@ -67,9 +69,12 @@ class Writer {
   std::uint64_t hash_ = 0xcbf29ce484222325ULL;
 };
 
+/// Reads a checkpoint's payload from a stream, @p size bytes, every read checked against what is
+/// left.
 class Reader {
  public:
-  Reader(const std::string& bytes, std::string path) : bytes_(bytes), path_(std::move(path)) {}
+  Reader(std::istream& in, std::uint64_t size, std::string path)
+      : in_(in), left_(size), path_(std::move(path)) {}
   template <class T>
   T get() {
     T value;
@@ -87,34 +92,35 @@ class Reader {
   }
   std::string get_text() {
     const auto size = get<std::uint64_t>();
-    if (size > bytes_.size() - offset_) fail("truncated text");
-    std::string text = bytes_.substr(offset_, size);
-    offset_ += size;
+    if (size > left_) fail("truncated text");
+    std::string text(size, '\0');
+    take(text.data(), size);
     return text;
   }
   void get_raw(void* out, std::size_t size) { take(out, size); }
   /// Refuse a count of @p count entries of @p entry_size bytes that the bytes left cannot hold:
   /// checked before allocating, so a forged count cannot exhaust memory.
   void check_room(std::uint64_t count, std::size_t entry_size) const {
-    if (count > (bytes_.size() - offset_) / entry_size) {
+    if (count > left_ / entry_size) {
       fail("array of " + std::to_string(count) + " entries, more than the file holds");
     }
   }
-  bool at_end() const { return offset_ == bytes_.size(); }
+  bool at_end() const { return left_ == 0; }
   [[noreturn]] void fail(const std::string& what) const {
     throw CheckpointError(path_ + ": corrupt checkpoint: " + what);
   }
 
  private:
   void take(void* out, std::size_t size) {
-    if (size > bytes_.size() - offset_) fail("truncated");
-    if (size == 0) return;  // an empty vector's data() may be null, which memcpy must not get
-    std::memcpy(out, bytes_.data() + offset_, size);
-    offset_ += size;
+    if (size > left_) fail("truncated");
+    if (size == 0) return;  // an empty vector's data() may be null, which read must not get
+    in_.read(static_cast<char*>(out), static_cast<std::streamsize>(size));
+    if (!in_) fail("unreadable");
+    left_ -= size;
   }
-  const std::string& bytes_;
+  std::istream& in_;
+  std::uint64_t left_;
   std::string path_;
-  std::size_t offset_ = 0;
 };
 
 /// Lines `key=value` of the canonical case text, numbers in their shortest exact form: kept as
@@ -485,9 +491,11 @@ void write_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
 
 namespace {
 
-/// The payload of the checkpoint file at @p path, after checking that it is a regular file, its
-/// magic, its version, its size against the header and its checksum.
-std::string checked_payload(const std::string& path) {
+/// The checkpoint file at @p path, opened at its payload of @p size bytes, after checking that it
+/// is a regular file, its magic, its version, its size against the header and its checksum. The
+/// payload is hashed in pieces as it is read, then read again by the caller: the file (hundreds
+/// of megabytes at 10^6 particles) is never held in memory beside the state read from it.
+std::ifstream open_checked_payload(const std::string& path, std::uint64_t& size) {
   // A directory opens as a stream on Linux and reports an absurd size: refuse it by its type.
   std::error_code error;
   const std::filesystem::file_status status = std::filesystem::status(path, error);
@@ -499,43 +507,55 @@ std::string checked_payload(const std::string& path) {
   }
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) throw CheckpointError(path + ": cannot open the checkpoint");
-  const std::streamoff length = in.tellg();
-  if (length < 0) throw CheckpointError(path + ": cannot read the checkpoint");
-  std::string file(static_cast<std::size_t>(length), '\0');
+  const std::streamoff signed_length = in.tellg();
+  if (signed_length < 0) throw CheckpointError(path + ": cannot read the checkpoint");
+  const auto length = static_cast<std::uint64_t>(signed_length);
+  std::array<char, kHeaderBytes> header{};
   in.seekg(0);
-  in.read(file.data(), static_cast<std::streamsize>(file.size()));
+  if (length >= kHeaderBytes) in.read(header.data(), header.size());
   if (!in) throw CheckpointError(path + ": cannot read the checkpoint");
-  constexpr std::size_t header = sizeof kMagic + sizeof(std::uint32_t) + sizeof(std::uint64_t);
-  if (file.size() < header || std::memcmp(file.data(), kMagic, sizeof kMagic) != 0) {
+  if (length < kHeaderBytes || std::memcmp(header.data(), kMagic, sizeof kMagic) != 0) {
     throw CheckpointError(path + ": not a bondem checkpoint");
   }
   std::uint32_t version = 0;
-  std::uint64_t size = 0;
-  std::memcpy(&version, file.data() + sizeof kMagic, sizeof version);
-  std::memcpy(&size, file.data() + sizeof kMagic + sizeof version, sizeof size);
+  std::memcpy(&version, header.data() + sizeof kMagic, sizeof version);
+  std::memcpy(&size, header.data() + sizeof kMagic + sizeof version, sizeof size);
   if (version != kCheckpointVersion) {
     throw CheckpointError(path + ": checkpoint format version " + std::to_string(version) +
                           ", this bondem reads version " + std::to_string(kCheckpointVersion));
   }
-  if (file.size() != header + size + sizeof(std::uint64_t)) {
-    throw CheckpointError(path + ": truncated checkpoint (" + std::to_string(file.size()) +
+  // In this order: a forged size near 2^64 must not wrap the sum.
+  if (length - kHeaderBytes < sizeof(std::uint64_t) ||
+      size != length - kHeaderBytes - sizeof(std::uint64_t)) {
+    throw CheckpointError(path + ": truncated checkpoint (" + std::to_string(length) +
                           " bytes, expected " +
-                          std::to_string(header + size + sizeof(std::uint64_t)) + ")");
+                          std::to_string(kHeaderBytes + size + sizeof(std::uint64_t)) + ")");
   }
-  std::string bytes = file.substr(header, size);
+  std::vector<char> piece(std::size_t{1} << 20U);
+  std::uint64_t hash = fnv1a(nullptr, 0);
+  for (std::uint64_t left = size; left > 0;) {
+    const auto count = static_cast<std::size_t>(std::min<std::uint64_t>(left, piece.size()));
+    in.read(piece.data(), static_cast<std::streamsize>(count));
+    if (!in) throw CheckpointError(path + ": cannot read the checkpoint");
+    hash = fnv1a(piece.data(), count, hash);
+    left -= count;
+  }
   std::uint64_t checksum = 0;
-  std::memcpy(&checksum, file.data() + header + size, sizeof checksum);
-  if (checksum != fnv1a(bytes.data(), bytes.size())) {
+  in.read(reinterpret_cast<char*>(&checksum), sizeof checksum);
+  if (!in) throw CheckpointError(path + ": cannot read the checkpoint");
+  if (checksum != hash) {
     throw CheckpointError(path + ": checksum mismatch, the checkpoint is corrupt");
   }
-  return bytes;
+  in.seekg(static_cast<std::streamoff>(kHeaderBytes));
+  return in;
 }
 
 }  // namespace
 
 Checkpoint read_checkpoint(const std::string& path) {
-  const std::string bytes = checked_payload(path);
-  Reader r(bytes, path);
+  std::uint64_t size = 0;
+  std::ifstream in = open_checked_payload(path, size);
+  Reader r(in, size, path);
   Checkpoint c;
   StepperState& s = c.stepper;
   c.case_fingerprint = r.get<std::uint64_t>();

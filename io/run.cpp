@@ -438,9 +438,9 @@ RunResult run_case(Case description, const RunOptions& options, std::ostream& lo
     if (description.vtk_interval > 0.0 && !scene.particles.displacement_tracked) {
       scene.particles.track_displacement();
     }
-    stepper.emplace(scene, restored.stepper);
     history_text = history_without_end_row(restored.history, restored.stepper.step,
                                            restored.stepper.time, plan.history_every);
+    stepper.emplace(scene, std::move(restored.stepper));
   } else {
     stepper.emplace(scene);
   }

@@ -23,7 +23,7 @@ Stepper::Stepper(Scene& scene, PairFlag pair_flag)
   bonds_formed_ = static_cast<std::int64_t>(contacts_.bonds_formed);
 }
 
-Stepper::Stepper(Scene& scene, const StepperState& restored, PairFlag pair_flag)
+Stepper::Stepper(Scene& scene, StepperState restored, PairFlag pair_flag)
     : scene_(scene), pair_flag_(std::move(pair_flag)) {
   if (scene_.needs_pair_flag() && !pair_flag_) {
     throw std::invalid_argument("bond criterion 'pair flag' needs a pair-flag supplier");
@@ -31,7 +31,11 @@ Stepper::Stepper(Scene& scene, const StepperState& restored, PairFlag pair_flag)
   // Forces come with the particles: they were evaluated with the half-step velocities of the
   // interrupted step, which a fresh evaluation could not reproduce.
   list_.restore(scene_.particles, scene_.domain, list_reach(), restored.list);
-  carry_pairs(carried_from(restored.slips));
+  // Freed before the pair slots are allocated: a restart's peak stays at a step's.
+  restored.list = NeighborListState{};
+  CarriedPairs carried = carried_from(restored.slips);
+  restored.slips = std::vector<SlipRecord>{};
+  carry_pairs(std::move(carried));
   if (restored.boundaries.size() != kBoundaryStateValues * scene_.boundaries.size()) {
     throw std::invalid_argument("saved state does not match the case's boundaries");
   }

@@ -87,8 +87,8 @@ class Stepper {
   explicit Stepper(Scene& scene, PairFlag pair_flag = {});
 
   /// Continue from a saved state; the scene's particles (forces included) must be those saved
-  /// with it.
-  Stepper(Scene& scene, const StepperState& restored, PairFlag pair_flag = {});
+  /// with it. By value: its arrays are freed as soon as they are used (pass it moved).
+  Stepper(Scene& scene, StepperState restored, PairFlag pair_flag = {});
 
   /// One velocity-Verlet step of scene.time_step. Throws BlowUpError, after completing the step,
   /// when a value is not finite or an overlap exceeds scene.max_overlap_fraction of a radius.
