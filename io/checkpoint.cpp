@@ -1,5 +1,6 @@
 #include "io/checkpoint.hpp"
 
+#include <algorithm>
 #include <array>
 #include <charconv>
 #include <cstring>
@@ -17,6 +18,8 @@ namespace bondem {
 namespace {
 
 constexpr char kMagic[8] = {'B', 'O', 'N', 'D', 'E', 'M', 'C', 'K'};
+/// Bytes before the payload: magic, version, payload size.
+constexpr std::size_t kHeaderBytes = sizeof kMagic + sizeof(std::uint32_t) + sizeof(std::uint64_t);
 
 /// FNV-1a, 64 bit: simple, dependency-free, and enough to catch truncation and bit rot.
 std::uint64_t fnv1a(const char* data, std::size_t size,
@@ -66,9 +69,12 @@ class Writer {
   std::uint64_t hash_ = 0xcbf29ce484222325ULL;
 };
 
+/// Reads a checkpoint's payload from a stream, @p size bytes, every read checked against what is
+/// left.
 class Reader {
  public:
-  Reader(const std::string& bytes, std::string path) : bytes_(bytes), path_(std::move(path)) {}
+  Reader(std::istream& in, std::uint64_t size, std::string path)
+      : in_(in), left_(size), path_(std::move(path)) {}
   template <class T>
   T get() {
     T value;
@@ -86,34 +92,35 @@ class Reader {
   }
   std::string get_text() {
     const auto size = get<std::uint64_t>();
-    if (size > bytes_.size() - offset_) fail("truncated text");
-    std::string text = bytes_.substr(offset_, size);
-    offset_ += size;
+    if (size > left_) fail("truncated text");
+    std::string text(size, '\0');
+    take(text.data(), size);
     return text;
   }
   void get_raw(void* out, std::size_t size) { take(out, size); }
   /// Refuse a count of @p count entries of @p entry_size bytes that the bytes left cannot hold:
   /// checked before allocating, so a forged count cannot exhaust memory.
   void check_room(std::uint64_t count, std::size_t entry_size) const {
-    if (count > (bytes_.size() - offset_) / entry_size) {
+    if (count > left_ / entry_size) {
       fail("array of " + std::to_string(count) + " entries, more than the file holds");
     }
   }
-  bool at_end() const { return offset_ == bytes_.size(); }
+  bool at_end() const { return left_ == 0; }
   [[noreturn]] void fail(const std::string& what) const {
     throw CheckpointError(path_ + ": corrupt checkpoint: " + what);
   }
 
  private:
   void take(void* out, std::size_t size) {
-    if (size > bytes_.size() - offset_) fail("truncated");
-    if (size == 0) return;  // an empty vector's data() may be null, which memcpy must not get
-    std::memcpy(out, bytes_.data() + offset_, size);
-    offset_ += size;
+    if (size > left_) fail("truncated");
+    if (size == 0) return;  // an empty vector's data() may be null, which read must not get
+    in_.read(static_cast<char*>(out), static_cast<std::streamsize>(size));
+    if (!in_) fail("unreadable");
+    left_ -= size;
   }
-  const std::string& bytes_;
+  std::istream& in_;
+  std::uint64_t left_;
   std::string path_;
-  std::size_t offset_ = 0;
 };
 
 /// Lines `key=value` of the canonical case text, numbers in their shortest exact form: kept as
@@ -139,6 +146,12 @@ class CanonicalText {
   }
   void add(const std::string& key, const Eigen::Vector3d& v) {
     for (int a = 0; a < 3; ++a) add(key + "." + std::to_string(a), v[a]);
+  }
+  /// Whole lines `key=value\n`, already formatted: the same text and hash as adding them one by
+  /// one.
+  void add_lines(std::string_view lines) {
+    hash_ = fnv1a(lines.data(), lines.size(), hash_);
+    if (keep_text_) text_.append(lines);
   }
   const std::string& text() const { return text_; }
   /// fnv1a() of the text.
@@ -211,17 +224,53 @@ void write_canonical_laws(const Case& c, CanonicalText& t) {
   t.add("case.gravity", c.gravity);
 }
 
+/// The lines of one particle, formatted as CanonicalText::add() formats them, into a buffer
+/// reused from particle to particle: a case of 10^6 particles makes 11 million lines, and a string
+/// per key and value took longer than hashing them.
+class ParticleLines {
+ public:
+  /// The lines of particle @p k.
+  std::string_view of(std::size_t k, const ParticleSpec& p) {
+    end_ = text_.data();
+    prefix_end_ = nullptr;
+    put("case.particles.");
+    end_ = std::to_chars(end_, text_.data() + text_.size(), k).ptr;
+    prefix_end_ = end_;
+    line(".material", p.material);
+    line(".radius", p.radius);
+    for (int a = 0; a < 3; ++a) line(kPosition[a], p.position[a]);
+    for (int a = 0; a < 3; ++a) line(kVelocity[a], p.velocity[a]);
+    line(".temperature", p.temperature);
+    return {text_.data(), static_cast<std::size_t>(end_ - text_.data())};
+  }
+
+ private:
+  static constexpr const char* kPosition[3] = {".position.0", ".position.1", ".position.2"};
+  static constexpr const char* kVelocity[3] = {".velocity.0", ".velocity.1", ".velocity.2"};
+  void put(std::string_view piece) { end_ = std::copy(piece.begin(), piece.end(), end_); }
+  /// A line after the first: the key's prefix again, then @p field, '=', @p value and '\n'.
+  template <class T>
+  void line(std::string_view field, T value) {
+    if (end_ != prefix_end_) {
+      const std::size_t prefix = static_cast<std::size_t>(prefix_end_ - text_.data());
+      end_ = std::copy_n(text_.data(), prefix, end_);
+    }
+    put(field);
+    *end_++ = '=';
+    // to_chars of a double without a format: the shortest exact text, as CanonicalText::add.
+    end_ = std::to_chars(end_, text_.data() + text_.size(), value).ptr;
+    *end_++ = '\n';
+  }
+  /// 11 lines of at most 15 + 20 + 12 + 1 + 24 + 1 characters.
+  std::array<char, 1024> text_{};
+  char* end_ = text_.data();
+  char* prefix_end_ = nullptr;
+};
+
 /// Every particle, exactly.
 void write_canonical_particles(const Case& c, CanonicalText& t) {
-  for (std::size_t k = 0; k < c.particles.size(); ++k) {
-    const ParticleSpec& p = c.particles[k];
-    const std::string key = "case.particles." + std::to_string(k);
-    t.add(key + ".material", p.material);
-    t.add(key + ".radius", p.radius);
-    t.add(key + ".position", p.position);
-    t.add(key + ".velocity", p.velocity);
-    t.add(key + ".temperature", p.temperature);
-  }
+  ParticleLines lines;
+  for (std::size_t k = 0; k < c.particles.size(); ++k) t.add_lines(lines.of(k, c.particles[k]));
 }
 
 /// The domain and the boundaries with their shapes and motions.
@@ -333,8 +382,9 @@ std::uint64_t case_fingerprint(const Case& c) {
 
 namespace {
 
-/// The checkpoint's payload, into @p payload.
-void put_payload(Writer& payload, const CheckpointView& checkpoint) {
+/// The checkpoint's payload, into @p payload; @p slips is the number of pairs
+/// checkpoint.for_each_slip visits.
+void put_payload(Writer& payload, const CheckpointView& checkpoint, std::uint64_t slips) {
   const Particles& p = checkpoint.particles;
   const StepperState& s = checkpoint.stepper;
   payload.put(checkpoint.case_fingerprint);
@@ -355,18 +405,21 @@ void put_payload(Writer& payload, const CheckpointView& checkpoint) {
     }
   };
   put_section(CheckpointSection::kParticle);
-  for (const auto* field : {&s.list.x0, &s.list.y0, &s.list.z0}) payload.put(*field);
+  for (const std::vector<double>* axis : checkpoint.build_positions) payload.put(*axis);
   payload.put(static_cast<std::int32_t>(p.walls));
   put_section(CheckpointSection::kWall);
   // Field by field: the struct's padding bytes are not part of the state.
-  payload.put(static_cast<std::uint64_t>(s.slips.size()));
-  for (const SlipRecord& slip : s.slips) {
+  payload.put(slips);
+  std::uint64_t visited = 0;
+  checkpoint.for_each_slip([&](const SlipRecord& slip) {
     payload.put(slip.first_id);
     payload.put(slip.second_id);
     for (const double v : {slip.sx, slip.sy, slip.sz, slip.rx, slip.ry, slip.rz}) payload.put(v);
     payload.put(slip.bonded);
     payload.put(slip.joined);
-  }
+    ++visited;
+  });
+  if (visited != slips) throw std::logic_error("checkpoint: the pairs' state changed its count");
   payload.put(s.boundaries);
   payload.put(s.bonds_formed);
   payload.put(s.bonds_broken);
@@ -386,9 +439,37 @@ void put_payload(Writer& payload, const CheckpointView& checkpoint) {
 
 }  // namespace
 
+CheckpointView checkpoint_view(const Checkpoint& checkpoint) {
+  const StepperState& s = checkpoint.stepper;
+  return {checkpoint.case_fingerprint,
+          checkpoint.particles,
+          s,
+          checkpoint.history,
+          {&s.list.x0, &s.list.y0, &s.list.z0},
+          [&s](const std::function<void(const SlipRecord&)>& visit) {
+            for (const SlipRecord& slip : s.slips) visit(slip);
+          }};
+}
+
+CheckpointView checkpoint_view(std::uint64_t case_fingerprint, const Particles& particles,
+                               const Stepper& stepper, const StepperState& state,
+                               const std::string& history) {
+  const NeighborList& list = stepper.neighbors();
+  return {case_fingerprint,
+          particles,
+          state,
+          history,
+          {&list.build_positions(0), &list.build_positions(1), &list.build_positions(2)},
+          [&stepper](const std::function<void(const SlipRecord&)>& visit) {
+            stepper.for_each_slip(visit);
+          }};
+}
+
 void write_checkpoint(const std::string& path, const CheckpointView& checkpoint) {
+  std::uint64_t slips = 0;
+  checkpoint.for_each_slip([&slips](const SlipRecord& /*slip*/) { ++slips; });
   Writer counter;
-  put_payload(counter, checkpoint);
+  put_payload(counter, checkpoint, slips);
   AtomicFile file(path, std::ios::binary);
   std::ostream& out = file.stream();
   out.write(kMagic, sizeof kMagic);
@@ -397,7 +478,7 @@ void write_checkpoint(const std::string& path, const CheckpointView& checkpoint)
   out.write(reinterpret_cast<const char*>(&version), sizeof version);
   out.write(reinterpret_cast<const char*>(&size), sizeof size);
   Writer payload(&out);
-  put_payload(payload, checkpoint);
+  put_payload(payload, checkpoint, slips);
   if (payload.size() != size) throw std::logic_error("checkpoint: the payload changed its size");
   const std::uint64_t checksum = payload.checksum();
   out.write(reinterpret_cast<const char*>(&checksum), sizeof checksum);
@@ -405,15 +486,16 @@ void write_checkpoint(const std::string& path, const CheckpointView& checkpoint)
 }
 
 void write_checkpoint(const std::string& path, const Checkpoint& checkpoint) {
-  write_checkpoint(path, CheckpointView{checkpoint.case_fingerprint, checkpoint.particles,
-                                        checkpoint.stepper, checkpoint.history});
+  write_checkpoint(path, checkpoint_view(checkpoint));
 }
 
 namespace {
 
-/// The payload of the checkpoint file at @p path, after checking that it is a regular file, its
-/// magic, its version, its size against the header and its checksum.
-std::string checked_payload(const std::string& path) {
+/// The checkpoint file at @p path, opened at its payload of @p size bytes, after checking that it
+/// is a regular file, its magic, its version, its size against the header and its checksum. The
+/// payload is hashed in pieces as it is read, then read again by the caller: the file (hundreds
+/// of megabytes at 10^6 particles) is never held in memory beside the state read from it.
+std::ifstream open_checked_payload(const std::string& path, std::uint64_t& size) {
   // A directory opens as a stream on Linux and reports an absurd size: refuse it by its type.
   std::error_code error;
   const std::filesystem::file_status status = std::filesystem::status(path, error);
@@ -425,43 +507,55 @@ std::string checked_payload(const std::string& path) {
   }
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) throw CheckpointError(path + ": cannot open the checkpoint");
-  const std::streamoff length = in.tellg();
-  if (length < 0) throw CheckpointError(path + ": cannot read the checkpoint");
-  std::string file(static_cast<std::size_t>(length), '\0');
+  const std::streamoff signed_length = in.tellg();
+  if (signed_length < 0) throw CheckpointError(path + ": cannot read the checkpoint");
+  const auto length = static_cast<std::uint64_t>(signed_length);
+  std::array<char, kHeaderBytes> header{};
   in.seekg(0);
-  in.read(file.data(), static_cast<std::streamsize>(file.size()));
+  if (length >= kHeaderBytes) in.read(header.data(), header.size());
   if (!in) throw CheckpointError(path + ": cannot read the checkpoint");
-  constexpr std::size_t header = sizeof kMagic + sizeof(std::uint32_t) + sizeof(std::uint64_t);
-  if (file.size() < header || std::memcmp(file.data(), kMagic, sizeof kMagic) != 0) {
+  if (length < kHeaderBytes || std::memcmp(header.data(), kMagic, sizeof kMagic) != 0) {
     throw CheckpointError(path + ": not a bondem checkpoint");
   }
   std::uint32_t version = 0;
-  std::uint64_t size = 0;
-  std::memcpy(&version, file.data() + sizeof kMagic, sizeof version);
-  std::memcpy(&size, file.data() + sizeof kMagic + sizeof version, sizeof size);
+  std::memcpy(&version, header.data() + sizeof kMagic, sizeof version);
+  std::memcpy(&size, header.data() + sizeof kMagic + sizeof version, sizeof size);
   if (version != kCheckpointVersion) {
     throw CheckpointError(path + ": checkpoint format version " + std::to_string(version) +
                           ", this bondem reads version " + std::to_string(kCheckpointVersion));
   }
-  if (file.size() != header + size + sizeof(std::uint64_t)) {
-    throw CheckpointError(path + ": truncated checkpoint (" + std::to_string(file.size()) +
+  // In this order: a forged size near 2^64 must not wrap the sum.
+  if (length - kHeaderBytes < sizeof(std::uint64_t) ||
+      size != length - kHeaderBytes - sizeof(std::uint64_t)) {
+    throw CheckpointError(path + ": truncated checkpoint (" + std::to_string(length) +
                           " bytes, expected " +
-                          std::to_string(header + size + sizeof(std::uint64_t)) + ")");
+                          std::to_string(kHeaderBytes + size + sizeof(std::uint64_t)) + ")");
   }
-  std::string bytes = file.substr(header, size);
+  std::vector<char> piece(std::size_t{1} << 20U);
+  std::uint64_t hash = fnv1a(nullptr, 0);
+  for (std::uint64_t left = size; left > 0;) {
+    const auto count = static_cast<std::size_t>(std::min<std::uint64_t>(left, piece.size()));
+    in.read(piece.data(), static_cast<std::streamsize>(count));
+    if (!in) throw CheckpointError(path + ": cannot read the checkpoint");
+    hash = fnv1a(piece.data(), count, hash);
+    left -= count;
+  }
   std::uint64_t checksum = 0;
-  std::memcpy(&checksum, file.data() + header + size, sizeof checksum);
-  if (checksum != fnv1a(bytes.data(), bytes.size())) {
+  in.read(reinterpret_cast<char*>(&checksum), sizeof checksum);
+  if (!in) throw CheckpointError(path + ": cannot read the checkpoint");
+  if (checksum != hash) {
     throw CheckpointError(path + ": checksum mismatch, the checkpoint is corrupt");
   }
-  return bytes;
+  in.seekg(static_cast<std::streamoff>(kHeaderBytes));
+  return in;
 }
 
 }  // namespace
 
 Checkpoint read_checkpoint(const std::string& path) {
-  const std::string bytes = checked_payload(path);
-  Reader r(bytes, path);
+  std::uint64_t size = 0;
+  std::ifstream in = open_checked_payload(path, size);
+  Reader r(in, size, path);
   Checkpoint c;
   StepperState& s = c.stepper;
   c.case_fingerprint = r.get<std::uint64_t>();

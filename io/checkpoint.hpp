@@ -2,11 +2,14 @@
 /// @file checkpoint.hpp
 /// Exact checkpoints: every bit of state a run needs to continue as if never stopped.
 
+#include <array>
 #include <cstdint>
+#include <functional>
 #include <iterator>
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "solver/engine/particles.hpp"
 #include "solver/engine/stepper.hpp"
@@ -122,17 +125,36 @@ std::uint64_t case_fingerprint(const Case& description);
 /// FNV-1a checksum. Throws std::runtime_error on I/O failure.
 void write_checkpoint(const std::string& path, const Checkpoint& checkpoint);
 
+/// Calls its argument once with every pair's carried state, in the same order at every call.
+using SlipVisitor = std::function<void(const std::function<void(const SlipRecord&)>&)>;
+
 /// A checkpoint's content by reference: what a running simulation writes, without copying its
-/// particles.
+/// particles, its neighbor list's build positions or its pairs' state.
 struct CheckpointView {
   std::uint64_t case_fingerprint = 0;
   const Particles& particles;
+  /// Time, counts and boundaries; its list positions and slips are not read: see below.
   const StepperState& stepper;
   const std::string& history;
+  /// The neighbor list's build positions, x, y and z.
+  std::array<const std::vector<double>*, 3> build_positions;
+  /// The pairs' carried state (a write visits it three times).
+  SlipVisitor for_each_slip;
 };
 
-/// The same from references, streamed: the payload is serialized twice (counted, then written
-/// and hashed) and never held in memory, so a checkpoint of 10^6 particles costs no copy of them.
+/// The view of @p checkpoint.
+CheckpointView checkpoint_view(const Checkpoint& checkpoint);
+
+/// The view of a running @p stepper's state: @p particles and @p history by reference, @p state
+/// from Stepper::save_state(SavedArrays::kOmitted), the list positions and the pairs' state
+/// streamed from @p stepper itself.
+CheckpointView checkpoint_view(std::uint64_t case_fingerprint, const Particles& particles,
+                               const Stepper& stepper, const StepperState& state,
+                               const std::string& history);
+
+/// Write @p checkpoint as write_checkpoint(path, Checkpoint) would, streamed: the payload is
+/// serialized twice (counted, then written and hashed) and never held in memory, so a checkpoint
+/// of 10^6 particles costs no copy of them.
 void write_checkpoint(const std::string& path, const CheckpointView& checkpoint);
 
 /// Read and verify a checkpoint. Throws CheckpointError naming the file and the problem.

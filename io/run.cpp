@@ -191,7 +191,10 @@ void remove_stale_outputs(const std::filesystem::path& directory, const std::fil
       const bool digits =
           !pid.empty() && pid.size() < 10 &&
           std::all_of(pid.begin(), pid.end(), [](char c) { return c >= '0' && c <= '9'; });
-      if (!digits || !(is_run_output(target) || target == ".bondem_probe")) continue;
+      if (!digits ||
+          !(is_run_output(target) || target == ".bondem_probe" || target == kLastGoodScratch)) {
+        continue;
+      }
       const auto owner = static_cast<pid_t>(std::stol(pid));
       // A live process may be writing it (another run aimed at the same directory).
       const bool alive = owner == ::getpid() || ::kill(owner, 0) == 0 || errno != ESRCH;
@@ -435,9 +438,9 @@ RunResult run_case(Case description, const RunOptions& options, std::ostream& lo
     if (description.vtk_interval > 0.0 && !scene.particles.displacement_tracked) {
       scene.particles.track_displacement();
     }
-    stepper.emplace(scene, restored.stepper);
     history_text = history_without_end_row(restored.history, restored.stepper.step,
                                            restored.stepper.time, plan.history_every);
+    stepper.emplace(scene, std::move(restored.stepper));
   } else {
     stepper.emplace(scene);
   }

@@ -1,36 +1,87 @@
 #include "io/run_observers.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <array>
+#include <charconv>
 #include <cmath>
 #include <numeric>
 #include <stdexcept>
 #include <system_error>
 #include <utility>
+#include <variant>
 
 #include "io/atomic_file.hpp"
 #include "io/checkpoint.hpp"
 
 namespace bondem {
 
+namespace {
+
+/// Characters of a 64-bit integer at most: -9223372036854775808.
+constexpr std::size_t kIntegerChars = 21;
+/// Characters of a final-state row at most: id, nine values and a bond count, with separators.
+constexpr std::size_t kFinalRowChars = 2 * kIntegerChars + 9 * kExactTextChars + 11;
+
+/// The final-state rows of particles order[first, last) at @p out, which has room for
+/// kFinalRowChars per row; returns the end.
+char* write_final_rows(const Particles& p, const std::vector<std::uint32_t>& order,
+                       std::size_t first, std::size_t last, const std::vector<int>& bonds,
+                       bool thermal, char* out) {
+  const auto put = [&out](double value) {
+    *out++ = ',';
+    out = write_exact_text(out, value);
+  };
+  for (std::size_t row = first; row < last; ++row) {
+    const std::uint32_t i = order[row];
+    out = std::to_chars(out, out + kIntegerChars, p.id[i]).ptr;
+    for (const double value : {p.x[i], p.y[i], p.z[i], p.vx[i], p.vy[i], p.vz[i], p.radius[i]}) {
+      put(value);
+    }
+    if (thermal) {
+      put(p.temperature[i]);
+      put(p.peak_temperature[i]);
+      *out++ = ',';
+      out = std::to_chars(out, out + kIntegerChars, bonds[i]).ptr;
+    }
+    *out++ = '\n';
+  }
+  return out;
+}
+
+}  // namespace
+
 void write_final_state(const Particles& p, const std::string& path, const std::vector<int>& bonds) {
-  std::vector<std::size_t> order(p.size());
-  std::iota(order.begin(), order.end(), std::size_t{0});
+  // Indices fit 32 bits (the neighbor list stores them so): half the memory of size_t.
+  std::vector<std::uint32_t> order(p.size());
+  std::iota(order.begin(), order.end(), std::uint32_t{0});
   std::sort(order.begin(), order.end(),
-            [&](std::size_t a, std::size_t b) { return p.id[a] < p.id[b]; });
+            [&](std::uint32_t a, std::uint32_t b) { return p.id[a] < p.id[b]; });
   AtomicFile file(path);
   std::ostream& out = file.stream();
   const bool thermal = p.thermal() && bonds.size() == p.size();
   out << "id,x,y,z,vx,vy,vz,radius" << (thermal ? ",temperature,peak_temperature,bonds" : "")
       << '\n';
-  for (const std::size_t i : order) {
-    out << p.id[i] << ',' << exact_text(p.x[i]) << ',' << exact_text(p.y[i]) << ','
-        << exact_text(p.z[i]) << ',' << exact_text(p.vx[i]) << ',' << exact_text(p.vy[i]) << ','
-        << exact_text(p.vz[i]) << ',' << exact_text(p.radius[i]);
-    if (thermal) {
-      out << ',' << exact_text(p.temperature[i]) << ',' << exact_text(p.peak_temperature[i]) << ','
-          << bonds[i];
+  // Formatting 17 digits is most of the time (10^6 rows, 7 million values): blocks of rows are
+  // formatted on every thread, then written in order. The bytes do not depend on the threads.
+  constexpr std::size_t kBlockRows = 16384;
+  const std::size_t rows = order.size();
+  const auto threads = static_cast<std::size_t>(threads_in_use(rows));
+  std::vector<std::vector<char>> text(threads, std::vector<char>(kBlockRows * kFinalRowChars));
+  std::vector<std::size_t> length(threads, 0);
+  for (std::size_t first = 0; first < rows; first += threads * kBlockRows) {
+#pragma omp parallel for schedule(static) num_threads(static_cast <int>(threads)) if (threads > 1)
+    for (std::size_t t = 0; t < threads; ++t) {
+      const std::size_t begin = std::min(rows, first + t * kBlockRows);
+      const std::size_t end = std::min(rows, begin + kBlockRows);
+      char* const start = text[t].data();
+      length[t] = static_cast<std::size_t>(
+          write_final_rows(p, order, begin, end, bonds, thermal, start) - start);
     }
-    out << '\n';
+    for (std::size_t t = 0; t < threads; ++t) {
+      out.write(text[t].data(), static_cast<std::streamsize>(length[t]));
+    }
   }
   file.commit();
 }
@@ -43,20 +94,75 @@ void HistoryFile::append(const std::string& text) {
   if (!stream_) throw std::runtime_error(path_ + ": write failed");
 }
 
+namespace {
+
+/// The scratch file of a LastGoodFile writing @p path: hidden, beside it, named like the
+/// temporaries remove_stale_outputs() clears (it is unlinked at once; a name can be left only by
+/// a kill between its creation and its unlinking).
+std::filesystem::path last_good_scratch(const std::string& path) {
+  return std::filesystem::path(path).parent_path() /
+         (std::string(kLastGoodScratch) + ".tmp." + std::to_string(::getpid()));
+}
+
+}  // namespace
+
 LastGoodFile::LastGoodFile(std::string path, const Particles& particles, const History& history)
     : path_(std::move(path)), history_(history) {
-  keep_last_good(particles, state_);
+  const std::filesystem::path scratch = last_good_scratch(path_);
+  scratch_.open(scratch, std::ios::in | std::ios::out | std::ios::binary | std::ios::trunc);
+  if (!scratch_) throw std::runtime_error(scratch.string() + ": cannot open for writing");
+  // The open stream keeps the file; its name is not needed any more.
+  std::error_code ignored;
+  std::filesystem::remove(scratch, ignored);
+  keep(particles);
+}
+
+void LastGoodFile::keep(const Particles& particles) {
+  scratch_.seekp(0);
+  const auto count = static_cast<std::uint64_t>(particles.size());
+  scratch_.write(reinterpret_cast<const char*>(&count), sizeof count);
+  for (const ParticleField& field : kParticleFields) {
+    if (!has(field, kLastGood)) continue;
+    std::visit(
+        [&](auto member) {
+          const auto& values = particles.*member;
+          scratch_.write(reinterpret_cast<const char*>(values.data()),
+                         static_cast<std::streamsize>(values.size() * sizeof values[0]));
+        },
+        field.member);
+  }
+  scratch_.flush();
+  if (!scratch_)
+    throw std::runtime_error(path_ + ": cannot keep the last good state (write failed)");
+}
+
+Particles LastGoodFile::kept() {
+  scratch_.seekg(0);
+  std::uint64_t count = 0;
+  scratch_.read(reinterpret_cast<char*>(&count), sizeof count);
+  Particles state;
+  for (const ParticleField& field : kParticleFields) {
+    if (!has(field, kLastGood)) continue;
+    std::visit(
+        [&](auto member) {
+          auto& values = state.*member;
+          values.resize(count);
+          scratch_.read(reinterpret_cast<char*>(values.data()),
+                        static_cast<std::streamsize>(values.size() * sizeof values[0]));
+        },
+        field.member);
+  }
+  if (!scratch_) throw std::runtime_error(path_ + ": cannot read the last good state back");
+  return state;
 }
 
 void LastGoodFile::after_step(const Simulation& simulation) {
   // A state is good once its history row is written: every value in it was finite.
-  if (history_.last_row_step() == simulation.step()) {
-    keep_last_good(simulation.scene().particles, state_);
-  }
+  if (history_.last_row_step() == simulation.step()) keep(simulation.scene().particles);
 }
 
 void LastGoodFile::interrupted(const Simulation& /*simulation*/, const Interruption& why) {
-  if (why.reason == StopReason::kBlowUp) write_final_state(state_, path_);
+  if (why.reason == StopReason::kBlowUp) write_final_state(kept(), path_);
 }
 
 VtkFrames::VtkFrames(const std::filesystem::path& directory, std::int64_t every)
@@ -133,10 +239,12 @@ void CheckpointFile::finish(const Simulation& simulation) {
 }
 
 void CheckpointFile::write(const Simulation& simulation) const {
-  // By reference: the particles are streamed to the file, not copied.
-  const StepperState state = simulation.stepper().save_state();
-  write_checkpoint(
-      path_, CheckpointView{fingerprint_, simulation.scene().particles, state, history_.text()});
+  // By reference: the particles, the list's build positions and the pairs' state are streamed
+  // to the file, not copied.
+  const Stepper& stepper = simulation.stepper();
+  const StepperState state = stepper.save_state(SavedArrays::kOmitted);
+  write_checkpoint(path_, checkpoint_view(fingerprint_, simulation.scene().particles, stepper,
+                                          state, history_.text()));
 }
 
 namespace {
@@ -188,14 +296,24 @@ void write_layer(const LayerMetrics& layer, const std::string& path) {
 
 }  // namespace
 
+namespace {
+
+/// The bond counts a final state lists: those of a thermal run; none otherwise (4 B a particle
+/// spared).
+std::vector<int> final_state_bonds(const Simulation& simulation) {
+  const Particles& p = simulation.scene().particles;
+  return p.thermal() ? bond_counts(p, simulation.stepper()) : std::vector<int>{};
+}
+
+}  // namespace
+
 EndOfRunFiles::EndOfRunFiles(std::filesystem::path directory, const RunAnalysis& analysis)
     : directory_(std::move(directory)), analysis_(analysis) {}
 
 void EndOfRunFiles::interrupted(const Simulation& simulation, const Interruption& why) {
   if (why.reason != StopReason::kStopRequested) return;
   const Particles& p = simulation.scene().particles;
-  write_final_state(p, (directory_ / "final_state.csv").string(),
-                    bond_counts(p, simulation.stepper()));
+  write_final_state(p, (directory_ / "final_state.csv").string(), final_state_bonds(simulation));
 }
 
 void EndOfRunFiles::finish(const Simulation& simulation) {
@@ -204,8 +322,7 @@ void EndOfRunFiles::finish(const Simulation& simulation) {
   OutputSet end_of_run(
       {directory_ / "final_state.csv", directory_ / "clusters.csv", directory_ / "layer.csv"});
   const Particles& p = simulation.scene().particles;
-  write_final_state(p, (directory_ / "final_state.csv").string(),
-                    bond_counts(p, simulation.stepper()));
+  write_final_state(p, (directory_ / "final_state.csv").string(), final_state_bonds(simulation));
   write_clusters(figures.clusters, (directory_ / "clusters.csv").string());
   if (figures.layer) write_layer(*figures.layer, (directory_ / "layer.csv").string());
   end_of_run.keep();

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "io/vtk_output.hpp"
@@ -35,19 +36,32 @@ class HistoryFile {
   std::ofstream stream_;
 };
 
+/// Name, before `.tmp.<pid>`, of a LastGoodFile's scratch file in the output directory.
+inline constexpr std::string_view kLastGoodScratch = ".bondem_last_good";
+
 /// The last state known to be sound (positions, velocities, radii, ids): the state of the
 /// history's latest row, or the state at construction before the first. Written to @p path when
-/// the run blows up.
+/// the run blows up. Kept on disk, not in memory: at each such state the kLastGood fields are
+/// written, raw and in the particles' current order, over a scratch file in @p path's directory
+/// that is unlinked as soon as it is opened (so nothing is left behind, even after a SIGKILL), and
+/// read back only on a blow-up. That saves 64 B a particle of resident memory for one write of as
+/// many bytes per history row (about 12 ms at 10^6 particles).
 class LastGoodFile : public Observer {
  public:
+  /// Throws std::runtime_error when the scratch file cannot be opened or written.
   LastGoodFile(std::string path, const Particles& particles, const History& history);
   void after_step(const Simulation& simulation) override;
   void interrupted(const Simulation& simulation, const Interruption& why) override;
 
  private:
+  /// Write the kLastGood fields of @p particles over the scratch file.
+  void keep(const Particles& particles);
+  /// The state last kept (only its kLastGood fields).
+  Particles kept();
+
   std::string path_;
   const History& history_;
-  Particles state_;
+  std::fstream scratch_;  ///< open, unlinked
 };
 
 /// VTK frames (particles with coordination and bond count, contacts, walls, tools) at step 0,

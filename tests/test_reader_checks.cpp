@@ -1,5 +1,6 @@
 // Case-reader checks (issue 12: overlaps, counts, materials, periodic axes, --set paths).
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <chrono>
@@ -249,6 +250,38 @@ TEST(ReaderChecks, GridOverlapSearchAgreesWithAllPairs) {
       EXPECT_DOUBLE_EQ(found->fraction, expected->fraction);
     }
   }
+}
+
+TEST(ReaderChecks, OverlapSearchInChunksFindsTheFirstOverlapOnAnyThreadCount) {
+  // 27 000 spheres on a cubic lattice with gaps, two planted overlaps in different chunks of the
+  // parallel search (4 096 particles each): the one with the smaller later index is the answer,
+  // however the chunks are spread over threads.
+  Domain domain;
+  domain.max = Eigen::Vector3d(0.09, 0.09, 0.09);
+  const double radius = 1.0e-3;
+  std::vector<ParticleSpec> particles;
+  for (int z = 0; z < 30; ++z) {
+    for (int y = 0; y < 30; ++y) {
+      for (int x = 0; x < 30; ++x) {
+        ParticleSpec p;
+        p.radius = radius;
+        p.position = Eigen::Vector3d(x, y, z) * 3.0 * radius + Eigen::Vector3d::Constant(radius);
+        particles.push_back(p);
+      }
+    }
+  }
+  particles[20000].position = particles[19999].position + Eigen::Vector3d(0.5 * radius, 0, 0);
+  particles[9000].position = particles[100].position + Eigen::Vector3d(0, 0.5 * radius, 0);
+  const int threads = omp_get_max_threads();
+  for (const int team : {1, 2, 3}) {
+    omp_set_num_threads(team);
+    const auto found = find_initial_overlap(particles, &domain, 0.05);
+    ASSERT_TRUE(found.has_value()) << team;
+    EXPECT_EQ(found->later, 9000U) << team;
+    EXPECT_EQ(found->earlier, 100U) << team;
+    EXPECT_DOUBLE_EQ(found->fraction, 1.5) << team;  // 2r - r/2 over r
+  }
+  omp_set_num_threads(threads);
 }
 
 // Item 8: a periodic axis shorter than three neighbor cells is a reader error naming the key.

@@ -303,5 +303,41 @@ TEST(BlowUp, TooLargeTimeStepIsCaughtWithItsCause) {
   EXPECT_THROW(run_case(c, options, log), CaseError);
 }
 
+/// The time of the last row of the history.csv in @p directory.
+double last_history_time(const fs::path& directory) {
+  std::ifstream history(directory / "history.csv");
+  std::string line, last;
+  while (std::getline(history, line)) last = line;
+  return std::strtod(last.c_str(), nullptr);  // 17 digits: the same double as the run's time
+}
+
+TEST(BlowUp, LastGoodStateIsTheStateOfTheLastHistoryRow) {
+  // The state is kept on disk, not in memory: read back, it must be the very state of that row,
+  // which a run of the same case ending at the row's time writes as its final state.
+  const fs::path blown = testing::fresh_directory("run_io_blow_up_rows");
+  const fs::path ended = testing::fresh_directory("run_io_blow_up_row_end");
+  Case c = short_packing(0.05);
+  c.time_step *= 40.0;  // contacts resolved in about two steps: blows up within a few rows
+  c.history_interval = 5.0 * c.time_step;
+  RunOptions options;
+  options.output_directory = blown.string();
+  options.quiet = true;
+  options.enforce_time_step_limit = false;
+  std::ostringstream log;
+  EXPECT_THROW(run_case(c, options, log), BlowUpError);
+  const double row_time = last_history_time(blown);
+  // Rows after the first: the state kept at a row, not only the one kept at the start.
+  ASSERT_GE(std::llround(row_time / c.time_step), 10);
+  c.end_time = row_time;
+  options.output_directory = ended.string();
+  run_case(c, options, log);
+  EXPECT_TRUE(testing::file_bytes(blown / "last_good_state.csv") ==
+              testing::file_bytes(ended / "final_state.csv"));
+  // The scratch file was unlinked when opened: nothing but the outputs is left.
+  for (const fs::directory_entry& entry : fs::directory_iterator(blown)) {
+    EXPECT_EQ(entry.path().filename().string().find(".bondem_last_good"), std::string::npos);
+  }
+}
+
 }  // namespace
 }  // namespace bondem

@@ -5,7 +5,10 @@
 #include <algorithm>
 #include <csignal>
 #include <cstdint>
+#include <cstdio>
+#include <cstring>
 #include <functional>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -217,6 +220,38 @@ TEST(Simulation, OtherErrorsLeaveRunWithNoFurtherHook) {
   EXPECT_THROW(f.simulation.run(), std::runtime_error);
   EXPECT_EQ(log.back(), "a step 2");
   EXPECT_EQ(f.stepper.step_count(), 2);
+}
+
+TEST(History, ExactTextIsPrintfsSeventeenDigits) {
+  // exact_text() formats by std::to_chars with precision 17, which C++ defines by printf's
+  // "%.17g": checked against printf itself on doubles of every exponent, random bit patterns
+  // (NaNs with their signs included) and the special values.
+  std::vector<double> values = {0.0,
+                                -0.0,
+                                0.1,
+                                1.0 / 3.0,
+                                1e16,
+                                1e17,
+                                123456789012345678.0,
+                                5e-324,
+                                2.2250738585072014e-308,
+                                std::numeric_limits<double>::max(),
+                                std::numeric_limits<double>::infinity(),
+                                -std::numeric_limits<double>::infinity(),
+                                std::numeric_limits<double>::quiet_NaN(),
+                                -std::numeric_limits<double>::quiet_NaN()};
+  std::uint64_t bits = 0x9E3779B97F4A7C15ULL;  // a 64-bit LCG: every sign, exponent and mantissa
+  for (int k = 0; k < 200000; ++k) {
+    bits = bits * 6364136223846793005ULL + 1442695040888963407ULL;
+    double value = 0.0;
+    std::memcpy(&value, &bits, sizeof value);
+    values.push_back(value);
+  }
+  for (const double value : values) {
+    char expected[64];
+    std::snprintf(expected, sizeof expected, "%.17g", value);
+    ASSERT_EQ(exact_text(value), expected);
+  }
 }
 
 TEST(History, RowsAtStepZeroEveryIntervalAndTheEnd) {

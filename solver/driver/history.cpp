@@ -1,16 +1,19 @@
 #include "solver/driver/history.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
-#include <cstdio>
 #include <sstream>
 
 namespace bondem {
 
+char* write_exact_text(char* out, double value) {
+  return std::to_chars(out, out + kExactTextChars, value, std::chars_format::general, 17).ptr;
+}
+
 std::string exact_text(double value) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.17g", value);
-  return buffer;
+  char buffer[kExactTextChars];
+  return {buffer, write_exact_text(buffer, value)};
 }
 
 std::vector<HistoryColumn> history_columns(const Scene& scene, const Stepper& stepper,

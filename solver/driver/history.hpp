@@ -16,6 +16,14 @@ namespace bondem {
 /// text reads back as the same double.
 std::string exact_text(double value);
 
+/// Room exact_text() needs at most: "-1.2345678901234567e-308" and a spare byte.
+inline constexpr std::size_t kExactTextChars = 26;
+
+/// Writes exact_text(@p value) at @p out, which has room for kExactTextChars; returns the end.
+/// The same bytes as printf's "%.17g" (C++ defines std::to_chars with a precision by it), without
+/// its locale and format parsing: a third of the time, which counts in a final state of 10^6 rows.
+char* write_exact_text(char* out, double value);
+
 /// One column of the history: its name, its unit, and how to read it from the run.
 struct HistoryColumn {
   std::string name;

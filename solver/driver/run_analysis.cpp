@@ -33,7 +33,9 @@ void measure_packing(const Case& description, const Scene& scene, const Stepper&
 }
 
 /// Clusters: bonded agglomerates of two or more particles, and their size distribution against
-/// the primary particles'. Particles with no bond are counted apart, as unbonded.
+/// the primary particles'. Particles with no bond are counted apart, as unbonded. Only the
+/// agglomerates are kept (a cluster per particle would stay in memory to the end of the run), and
+/// without a bonded pair there are none: every particle is a singleton.
 void measure_clusters(const Particles& p, const Stepper& stepper, RunFigures& figures) {
   std::vector<std::pair<std::uint32_t, std::uint32_t>> bonded;
   stepper.neighbors().for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
@@ -41,21 +43,24 @@ void measure_clusters(const Particles& p, const Stepper& stepper, RunFigures& fi
       bonded.emplace_back(static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j));
     }
   });
-  figures.clusters = find_clusters(p, bonded);
-  std::vector<double> primary, agglomerates;
-  for (const double r : p.radius) primary.push_back(2.0 * r);
-  const ClusterReport& clusters = figures.clusters;
-  for (std::size_t k = 0; k < clusters.sizes.size(); ++k) {
-    if (clusters.sizes[k] < 2) {
-      ++figures.unbonded;
-      continue;
+  ClusterReport& agglomerates = figures.clusters;
+  figures.unbonded = p.size();
+  if (!bonded.empty()) {
+    ClusterReport clusters = find_clusters(p, bonded);
+    for (std::size_t k = 0; k < clusters.sizes.size(); ++k) {
+      if (clusters.sizes[k] < 2) continue;
+      figures.unbonded -= clusters.sizes[k];
+      figures.largest_cluster = std::max(figures.largest_cluster, clusters.sizes[k]);
+      agglomerates.sizes.push_back(clusters.sizes[k]);
+      agglomerates.volume_equivalent_diameters.push_back(clusters.volume_equivalent_diameters[k]);
     }
-    figures.largest_cluster = std::max(figures.largest_cluster, clusters.sizes[k]);
-    agglomerates.push_back(clusters.volume_equivalent_diameters[k]);
   }
-  figures.agglomerates = agglomerates.size();
-  figures.primary_sizes = size_quantiles(primary);
-  figures.cluster_sizes = size_quantiles(agglomerates);
+  figures.agglomerates = agglomerates.sizes.size();
+  std::vector<double> primary;
+  primary.reserve(p.size());
+  for (const double r : p.radius) primary.push_back(2.0 * r);
+  figures.primary_sizes = size_quantiles(std::move(primary));
+  figures.cluster_sizes = size_quantiles(agglomerates.volume_equivalent_diameters);
 }
 
 /// Heat received and the heat-affected band: particles that reached the bonding temperature (or,

@@ -29,7 +29,8 @@ struct ThermalReport {
 struct RunFigures {
   Box packing_region;     ///< the case's analysis.region, or the bed below its surface
   PackingReport packing;  ///< solid fraction and coordination in packing_region
-  /// Every cluster, singletons included; the agglomerates are those of two or more particles.
+  /// The agglomerates (clusters of two or more particles) in the order of find_clusters()'s
+  /// labels; cluster_of is left empty.
   ClusterReport clusters;
   std::size_t agglomerates = 0;          ///< clusters of two or more particles
   std::size_t largest_cluster = 0;       ///< particles in the largest of them (0 if none)

@@ -52,6 +52,9 @@ RunEnd Simulation::run() {
   end.loop_seconds = elapsed();
   end.step = step();
   end.finished = true;
+  // Every after_step() has run (the last VTK frame among them): the end of the run reads no
+  // per-pair force, and its outputs and analysis get their memory.
+  stepper_.release_pair_forces();
   for (Observer* observer : observers_) observer->finish(*this);
   return end;
 }

@@ -47,7 +47,9 @@ class Observer {
   virtual void after_step(const Simulation& /*simulation*/) {}
   /// The run ends before its last step, for @p why.
   virtual void interrupted(const Simulation& /*simulation*/, const Interruption& /*why*/) {}
-  /// The last step is done (after its after_step()).
+  /// The last step is done (after its after_step()). The stepper's per-pair forces are released
+  /// by then (Stepper::release_pair_forces()): the state, the list, the springs and the bond
+  /// flags are there, the forces between pairs are not.
   virtual void finish(const Simulation& /*simulation*/) {}
 };
 

@@ -34,6 +34,12 @@ class NeighborList {
   /// Save the positions of the last build and the build count.
   void save(NeighborListState& state) const;
 
+  /// Positions of the last build along @p axis (0, 1, 2: what save() copies), for a writer that
+  /// streams them instead.
+  const std::vector<double>& build_positions(int axis) const {
+    return axis == 0 ? x0_ : axis == 1 ? y0_ : z0_;
+  }
+
   /// Rebuild the list of a saved state for particles in the same order (no reordering).
   void restore(Particles& p, const Domain& domain, double skin, const NeighborListState& state);
 

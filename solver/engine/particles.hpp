@@ -1,7 +1,7 @@
 #pragma once
 /// @file particles.hpp
 /// Particle storage as a structure of arrays: one contiguous array per field, and the one table
-/// of those fields (kParticleFields) that reordering, checkpoints, the last-good snapshot and the
+/// of those fields (kParticleFields) that reordering, checkpoints, the last-good state and the
 /// VTK writer read. Kernels index the plain arrays; only bookkeeping goes through the table.
 
 #include <omp.h>
@@ -98,6 +98,10 @@ struct Particles {
   std::size_t add(std::int64_t particle_id, std::int32_t material_index, double particle_radius,
                   double particle_mass, const double position[3], const double velocity[3]);
 
+  /// Room for @p count particles in every field in use, so that add() does not reallocate: a
+  /// vector grown by doubling holds up to twice its particles, and moves them at every growth.
+  void reserve(std::size_t count);
+
   /// Reorder every field marked kReordered so that new index k holds old particle order[k].
   void permute(const std::vector<std::uint32_t>& order);
 
@@ -110,7 +114,7 @@ struct Particles {
 enum ParticleFieldFlag : unsigned {
   kReordered = 1U << 0U,     ///< moved with the particles by Particles::permute
   kCheckpointed = 1U << 1U,  ///< written to and read from checkpoints (exact restarts)
-  kLastGood = 1U << 2U,      ///< copied by keep_last_good (the fields of a final-state file)
+  kLastGood = 1U << 2U,      ///< kept by LastGoodFile (the fields of a final-state file)
   kThermal = 1U << 3U,       ///< present (non-empty) only when temperatures are tracked
   kPerWall = 1U << 4U,       ///< wall_values per wall slot and particle (Particles::walls), not 1
   /// Present (non-empty) only when Particles::contact_history (EPSD rolling or JKR cohesion).
@@ -263,6 +267,14 @@ inline std::size_t Particles::add(std::int64_t particle_id, std::int32_t materia
   return index;
 }
 
+inline void Particles::reserve(std::size_t count) {
+  for (const ParticleField& field : kParticleFields) {
+    if (!in_use(field, *this)) continue;
+    const std::size_t values = count * values_per_particle(field, *this);
+    std::visit([&](auto member) { (this->*member).reserve(values); }, field.member);
+  }
+}
+
 inline void Particles::permute(const std::vector<std::uint32_t>& order) {
   for (const ParticleField& field : kParticleFields) {
     if (!has(field, kReordered)) continue;
@@ -299,17 +311,6 @@ inline void Particles::track_temperatures() {
   for (const ParticleField& field : kParticleFields) {
     if (has(field, kThermal)) {
       std::visit([&](auto member) { (this->*member).assign(size(), {}); }, field.member);
-    }
-  }
-}
-
-/// Copies into @p to the fields marked kLastGood (ids, positions, velocities, radii: what a
-/// final-state file holds): the last good state kept for a blow-up report, at about a third of
-/// the memory of a full copy.
-inline void keep_last_good(const Particles& from, Particles& to) {
-  for (const ParticleField& field : kParticleFields) {
-    if (has(field, kLastGood)) {
-      std::visit([&](auto member) { to.*member = from.*member; }, field.member);
     }
   }
 }

@@ -129,6 +129,7 @@ Scene build_scene(const Case& description) {
     slots += count;
   }
   scene.particles.set_wall_count(slots);
+  scene.particles.reserve(description.particles.size());
   std::int64_t next_id = 0;
   for (const ParticleSpec& spec : description.particles) {
     const double density = description.materials[static_cast<std::size_t>(spec.material)].density;

@@ -18,13 +18,13 @@ Stepper::Stepper(Scene& scene, PairFlag pair_flag)
   }
   if (simd_pass_applies(scene_)) lane_constants_ = lane_pair_constants(scene_);
   list_.build(scene_.particles, scene_.domain, list_reach(), scene_.reorder_interval > 0);
-  apply_slips({});
+  carry_pairs({});
   build_mesh_candidates(scene_, mesh_candidates_);
   compute_forces(std::numeric_limits<double>::quiet_NaN());
   bonds_formed_ = static_cast<std::int64_t>(contacts_.bonds_formed);
 }
 
-Stepper::Stepper(Scene& scene, const StepperState& restored, PairFlag pair_flag)
+Stepper::Stepper(Scene& scene, StepperState restored, PairFlag pair_flag)
     : scene_(scene), pair_flag_(std::move(pair_flag)) {
   if (scene_.needs_pair_flag() && !pair_flag_) {
     throw std::invalid_argument("bond criterion 'pair flag' needs a pair-flag supplier");
@@ -33,7 +33,11 @@ Stepper::Stepper(Scene& scene, const StepperState& restored, PairFlag pair_flag)
   // Forces come with the particles: they were evaluated with the half-step velocities of the
   // interrupted step, which a fresh evaluation could not reproduce.
   list_.restore(scene_.particles, scene_.domain, list_reach(), restored.list);
-  apply_slips(restored.slips);
+  // Freed before the pair slots are allocated: a restart's peak stays at a step's.
+  restored.list = NeighborListState{};
+  CarriedPairs carried = carried_from(restored.slips);
+  restored.slips = std::vector<SlipRecord>{};
+  carry_pairs(std::move(carried));
   if (restored.boundaries.size() != kBoundaryStateValues * scene_.boundaries.size()) {
     throw std::invalid_argument("saved state does not match the case's boundaries");
   }
@@ -88,7 +92,7 @@ ContactSummary Stepper::evaluate_forces(const Law& law) {
 }
 
 void Stepper::compute_forces(double laser_time) {
-  // Pair slots are sized for the current list by apply_slips, which follows every build.
+  // Pair slots are sized for the current list by carry_pairs, which follows every build.
   // Compiled per storage need: tangential springs (friction) and the contact history of cohesion
   // and EPSD rolling (Particles::contact_history); every other choice is the pair's, at run time.
   const bool models = scene_.particles.contact_history;
@@ -117,83 +121,122 @@ void Stepper::deposit_laser(double laser_time) {
 }
 
 std::vector<SlipRecord> Stepper::collect_slips() const {
+  // Counted first: a vector grown by doubling would hold up to three times the records while it
+  // moves them (72 B each, about three a particle in a frictional packing).
+  std::size_t count = 0;
+  for_each_slip([&count](const SlipRecord& /*slip*/) { ++count; });
   std::vector<SlipRecord> slips;
-  const Particles& p = scene_.particles;
-  const bool springs = scene_.friction;
-  const bool extended = !history_.joined.empty();
-  list_.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
-    const std::uint8_t bonded = pair_forces_.bonded[k];
-    const bool loaded =
-        springs && (history_.sx[k] != 0.0 || history_.sy[k] != 0.0 || history_.sz[k] != 0.0);
-    const bool held = extended && (history_.joined[k] != 0 || history_.rx[k] != 0.0 ||
-                                   history_.ry[k] != 0.0 || history_.rz[k] != 0.0);
-    if (!loaded && !held && bonded == 0) return;
-    SlipRecord slip{p.id[i], p.id[j], 0.0, 0.0, 0.0};
-    slip.bonded = bonded;
-    if (springs) {
-      slip.sx = history_.sx[k];
-      slip.sy = history_.sy[k];
-      slip.sz = history_.sz[k];
-    }
-    if (extended) {
-      slip.rx = history_.rx[k];
-      slip.ry = history_.ry[k];
-      slip.rz = history_.rz[k];
-      slip.joined = history_.joined[k];
-    }
-    slips.push_back(slip);
-  });
+  slips.reserve(count);
+  for_each_slip([&slips](const SlipRecord& slip) { slips.push_back(slip); });
   return slips;
 }
 
-void Stepper::apply_slips(std::vector<SlipRecord> slips) {
-  // Pair slots are indexed by the new list: start them clean, then refill by ids.
-  pair_forces_.resize(list_.pair_count(), scene_.friction, scene_.rolling(),
-                      scene_.particles.thermal());
-  std::fill(pair_forces_.bonded.begin(), pair_forces_.bonded.end(), std::uint8_t{0});
+Stepper::CarriedPairs Stepper::carried_from(const std::vector<SlipRecord>& slips) const {
+  CarriedPairs carried;
   const bool extended = scene_.particles.contact_history;
-  history_.resize(list_.pair_count(), scene_.friction, extended);
-  if (slips.empty()) return;
-  // Key each spring by its pair of ids, smaller first; the elongation belongs to the first
-  // particle's side, so it changes sign when the list now sees the pair the other way round.
-  // By value: std::minmax returns references, which would dangle here.
-  const auto key = [](std::int64_t a, std::int64_t b) {
-    return a < b ? std::pair<std::int64_t, std::int64_t>(a, b)
-                 : std::pair<std::int64_t, std::int64_t>(b, a);
-  };
-  std::sort(slips.begin(), slips.end(), [&](const SlipRecord& l, const SlipRecord& r) {
-    return key(l.first_id, l.second_id) < key(r.first_id, r.second_id);
-  });
-  const Particles& p = scene_.particles;
-  list_.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
-    const auto wanted = key(p.id[i], p.id[j]);
-    const auto found = std::lower_bound(
-        slips.begin(), slips.end(), wanted,
-        [&](const SlipRecord& r, const auto& w) { return key(r.first_id, r.second_id) < w; });
-    if (found == slips.end() || key(found->first_id, found->second_id) != wanted) return;
-    pair_forces_.bonded[k] = found->bonded;
-    // Springs are seen from the first particle: both flip when the list sees the pair reversed.
-    const double sign = found->first_id == p.id[i] ? 1.0 : -1.0;
+  carried.history.resize(slips.size(), scene_.friction, extended);
+  carried.bonded.resize(slips.size());
+  carried.keys.reserve(slips.size());
+  for (std::size_t s = 0; s < slips.size(); ++s) {
+    const SlipRecord& slip = slips[s];
+    carried.keys.push_back({slip.first_id, slip.second_id, static_cast<std::uint32_t>(s)});
+    carried.bonded[s] = slip.bonded;
     if (scene_.friction) {
-      history_.sx[k] = sign * found->sx;
-      history_.sy[k] = sign * found->sy;
-      history_.sz[k] = sign * found->sz;
+      carried.history.sx[s] = slip.sx;
+      carried.history.sy[s] = slip.sy;
+      carried.history.sz[s] = slip.sz;
     }
     if (extended) {
-      history_.rx[k] = sign * found->rx;
-      history_.ry[k] = sign * found->ry;
-      history_.rz[k] = sign * found->rz;
-      history_.joined[k] = found->joined;
+      carried.history.rx[s] = slip.rx;
+      carried.history.ry[s] = slip.ry;
+      carried.history.rz[s] = slip.rz;
+      carried.history.joined[s] = slip.joined;
+    }
+  }
+  return carried;
+}
+
+void Stepper::release_pair_forces() {
+  std::vector<std::uint8_t> bonded = std::move(pair_forces_.bonded);
+  pair_forces_ = PairForces{};
+  pair_forces_.bonded = std::move(bonded);
+}
+
+Stepper::CarriedPairs Stepper::release_pairs() {
+  CarriedPairs carried;
+  release_pair_forces();
+  carried.bonded = std::move(pair_forces_.bonded);
+  carried.history = std::move(history_);
+  history_ = PairHistory{};
+  // Counted first: a vector grown by doubling would hold up to three times the keys while it
+  // moves them.
+  std::size_t count = 0;
+  list_.for_each_pair([&](std::size_t /*i*/, std::size_t /*j*/, std::uint32_t k) {
+    if (carries_state(carried.history, carried.bonded, k)) ++count;
+  });
+  carried.keys.reserve(count);
+  const Particles& p = scene_.particles;
+  list_.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
+    if (carries_state(carried.history, carried.bonded, k)) {
+      carried.keys.push_back({p.id[i], p.id[j], k});
     }
   });
+  return carried;
+}
+
+void Stepper::carry_pairs(CarriedPairs carried) {
+  // Pair slots are indexed by the new list: start them clean, then refill by ids.
+  const std::size_t pairs = list_.pair_count();
+  const bool extended = scene_.particles.contact_history;
+  history_.resize(pairs, scene_.friction, extended);
+  pair_forces_.bonded.assign(pairs, std::uint8_t{0});
+  std::vector<CarriedPairs::Key>& keys = carried.keys;
+  if (!keys.empty()) {
+    // Key each pair by its ids, smaller first; the springs belong to the first particle's side,
+    // so they change sign when the list now sees the pair the other way round. By value:
+    // std::minmax returns references, which would dangle here.
+    const auto key = [](std::int64_t a, std::int64_t b) {
+      return a < b ? std::pair<std::int64_t, std::int64_t>(a, b)
+                   : std::pair<std::int64_t, std::int64_t>(b, a);
+    };
+    using Key = CarriedPairs::Key;
+    std::sort(keys.begin(), keys.end(), [&](const Key& l, const Key& r) {
+      return key(l.first_id, l.second_id) < key(r.first_id, r.second_id);
+    });
+    const Particles& p = scene_.particles;
+    const PairHistory& from = carried.history;
+    list_.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
+      const auto wanted = key(p.id[i], p.id[j]);
+      const auto found = std::lower_bound(
+          keys.begin(), keys.end(), wanted,
+          [&](const Key& r, const auto& w) { return key(r.first_id, r.second_id) < w; });
+      if (found == keys.end() || key(found->first_id, found->second_id) != wanted) return;
+      const std::uint32_t s = found->slot;
+      pair_forces_.bonded[k] = carried.bonded[s];
+      const double sign = found->first_id == p.id[i] ? 1.0 : -1.0;
+      if (scene_.friction) {
+        history_.sx[k] = sign * from.sx[s];
+        history_.sy[k] = sign * from.sy[s];
+        history_.sz[k] = sign * from.sz[s];
+      }
+      if (extended) {
+        history_.rx[k] = sign * from.rx[s];
+        history_.ry[k] = sign * from.ry[s];
+        history_.rz[k] = sign * from.rz[s];
+        history_.joined[k] = from.joined[s];
+      }
+    });
+  }
+  carried = CarriedPairs{};
+  pair_forces_.resize(pairs, scene_.friction, scene_.rolling(), scene_.particles.thermal());
 }
 
 void Stepper::rebuild_list() {
   const bool reorder =
       scene_.reorder_interval > 0 && (list_.build_count() % scene_.reorder_interval) == 0;
-  std::vector<SlipRecord> slips = collect_slips();
+  CarriedPairs carried = release_pairs();
   list_.build(scene_.particles, scene_.domain, list_reach(), reorder);
-  apply_slips(std::move(slips));
+  carry_pairs(std::move(carried));
   build_mesh_candidates(scene_, mesh_candidates_);
 }
 
@@ -264,6 +307,10 @@ bool Stepper::finish_step(double dt) {
 
 void Stepper::step() {
   const double dt = scene_.time_step;
+  if (pair_forces_.fx.size() != list_.pair_count()) {  // after release_pair_forces()
+    pair_forces_.resize(list_.pair_count(), scene_.friction, scene_.rolling(),
+                        scene_.particles.thermal());
+  }
   drift(dt);
   // The laser deposits at mid-step, so a beam on for T seconds delivers its power for T seconds
   // to within one step.
@@ -394,13 +441,17 @@ BlowUpError Stepper::diagnose_deep_boundary(std::ostringstream& message) const {
   return BlowUpError(message.str());
 }
 
-StepperState Stepper::save_state() const {
+StepperState Stepper::save_state(SavedArrays arrays) const {
   StepperState state;
   state.time = time_;
   state.step = step_count_;
   state.contacts = contacts_;
-  list_.save(state.list);
-  state.slips = collect_slips();
+  if (arrays == SavedArrays::kIncluded) {
+    list_.save(state.list);
+    state.slips = collect_slips();
+  } else {
+    state.list.builds = list_.build_count();
+  }
   state.bonds_formed = bonds_formed_;
   state.bonds_broken = bonds_broken_;
   state.laser_energy = laser_energy_;

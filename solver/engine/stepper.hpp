@@ -73,6 +73,9 @@ struct StepperState {
   double laser_missed = 0.0;      ///< absorbable laser energy that found no particle [J]
 };
 
+/// Whether Stepper::save_state() copies the arrays of the state.
+enum class SavedArrays { kIncluded, kOmitted };
+
 /// Advances a scene in time. Owns the neighbor list and per-pair force slots; the scene owns the
 /// particles. OpenMP-parallel; the state after any number of steps is the same bytes for any
 /// thread count.
@@ -85,15 +88,29 @@ class Stepper {
   explicit Stepper(Scene& scene, PairFlag pair_flag = {});
 
   /// Continue from a saved state; the scene's particles (forces included) must be those saved
-  /// with it.
-  Stepper(Scene& scene, const StepperState& restored, PairFlag pair_flag = {});
+  /// with it. By value: its arrays are freed as soon as they are used (pass it moved).
+  Stepper(Scene& scene, StepperState restored, PairFlag pair_flag = {});
 
   /// One velocity-Verlet step of scene.time_step. Throws BlowUpError, after completing the step,
   /// when a value is not finite or an overlap exceeds scene.max_overlap_fraction of a radius.
   void step();
 
-  /// The state to checkpoint together with the particles.
-  StepperState save_state() const;
+  /// The state to checkpoint together with the particles. With @p arrays kOmitted, the list's
+  /// build positions and the pairs' state (StepperState::list.x0..z0 and slips) are left empty: a
+  /// writer then streams them from neighbors() and for_each_slip() instead of holding a copy
+  /// (24 B a particle and 72 B a pair with a spring).
+  StepperState save_state(SavedArrays arrays = SavedArrays::kIncluded) const;
+
+  /// Calls @p visit(const SlipRecord&) for every pair that carries state (a spring, an EPSD
+  /// rolling spring, a JKR hold or a bond), in list order: what save_state() puts in slips.
+  template <class Visit>
+  void for_each_slip(Visit&& visit) const;
+
+  /// Free the per-pair forces, torque terms and heat flows of the last evaluation (56 B a pair
+  /// with friction; pair_forces() keeps only the bond flags) until the next step() evaluates them
+  /// again: the end of a run reads the state, the list, the springs and the bond flags, not
+  /// those, and its analysis then needs no memory beyond a step's.
+  void release_pair_forces();
 
   /// Simulated time [s].
   double time() const { return time_; }
@@ -138,10 +155,41 @@ class Stepper {
   bool finish_step(double dt);
   void kick_spin(double half_dt);
   /// The per-pair state (springs, bond flags) of the pairs that have any, keyed by particle ids:
-  /// the one carry-over across list rebuilds (reordering included) and restarts.
+  /// what a checkpoint carries (save_state()).
   std::vector<SlipRecord> collect_slips() const;
-  /// Clean pair slots for the current list, refilled from @p slips by particle ids.
-  void apply_slips(std::vector<SlipRecord> slips);
+  /// The pairs' state on its way across a list build (reordering included) or from a checkpoint:
+  /// the pairs that have any, keyed by particle ids, each with its slot in the arrays it came
+  /// from. 24 B a pair besides those arrays, which a rebuild moves out of the stepper rather than
+  /// copies: no 72-B SlipRecord per loaded pair.
+  struct CarriedPairs {
+    struct Key {
+      std::int64_t first_id, second_id;
+      std::uint32_t slot;
+    };
+    std::vector<Key> keys;
+    PairHistory history;               ///< springs, rolling springs and JKR flags, by slot
+    std::vector<std::uint8_t> bonded;  ///< bond flags, by slot
+  };
+  /// @p slips (a checkpoint's) as carried pairs.
+  CarriedPairs carried_from(const std::vector<SlipRecord>& slips) const;
+  /// Take the pairs' state out of the stepper before a build: its history and bond flags move
+  /// into the result, and the per-pair forces, torque terms and heat flows, which the evaluation
+  /// after every build rewrites, are freed (56 B a pair with friction) for the keys to take
+  /// their place.
+  CarriedPairs release_pairs();
+  /// Clean pair slots for the current list, refilled from @p carried by particle ids; the force
+  /// slots are allocated once @p carried is freed, so that a rebuild's peak stays below a step's.
+  void carry_pairs(CarriedPairs carried);
+  /// Whether slot @p k of @p history and @p bonded holds state: a spring, an EPSD rolling spring,
+  /// a JKR hold or a bond.
+  bool carries_state(const PairHistory& history, const std::vector<std::uint8_t>& bonded,
+                     std::uint32_t k) const {
+    const bool loaded =
+        scene_.friction && (history.sx[k] != 0.0 || history.sy[k] != 0.0 || history.sz[k] != 0.0);
+    const bool held = !history.joined.empty() && (history.joined[k] != 0 || history.rx[k] != 0.0 ||
+                                                  history.ry[k] != 0.0 || history.rz[k] != 0.0);
+    return loaded || held || bonded[k] != 0;
+  }
   /// Rebuild the list (reordering the particles every reorder_interval builds), carrying the
   /// per-pair state over by ids.
   void rebuild_list();
@@ -175,5 +223,29 @@ class Stepper {
   double laser_power_ = 0.0;  ///< absorbed in the last evaluation [W]
   double laser_missed_power_ = 0.0;
 };
+
+template <class Visit>
+void Stepper::for_each_slip(Visit&& visit) const {
+  const Particles& p = scene_.particles;
+  const bool springs = scene_.friction;
+  const bool extended = !history_.joined.empty();
+  list_.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
+    if (!carries_state(history_, pair_forces_.bonded, k)) return;
+    SlipRecord slip{p.id[i], p.id[j], 0.0, 0.0, 0.0};
+    slip.bonded = pair_forces_.bonded[k];
+    if (springs) {
+      slip.sx = history_.sx[k];
+      slip.sy = history_.sy[k];
+      slip.sz = history_.sz[k];
+    }
+    if (extended) {
+      slip.rx = history_.rx[k];
+      slip.ry = history_.ry[k];
+      slip.rz = history_.rz[k];
+      slip.joined = history_.joined[k];
+    }
+    visit(static_cast<const SlipRecord&>(slip));
+  });
+}
 
 }  // namespace bondem

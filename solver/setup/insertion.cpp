@@ -2,11 +2,14 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <functional>
 #include <numbers>
 #include <sstream>
 #include <utility>
+
+#include "solver/engine/particles.hpp"
 
 namespace bondem {
 namespace {
@@ -614,7 +617,9 @@ std::optional<InitialOverlap> overlap_with_earlier(const std::vector<ParticleSpe
           Eigen::Vector3d d = particles[j].position - p.position;
           bool wrapped = false;
           for (int a = 0; a < 3; ++a) {
-            if (!grid.periodic[a]) continue;
+            // Well inside half a period the image is the particle itself: the shift below would
+            // be a rounded zero, skipped with its division.
+            if (!grid.periodic[a] || std::abs(d[a]) < 0.25 * grid.period[a]) continue;
             const double shift = grid.period[a] * std::round(d[a] / grid.period[a]);
             wrapped = wrapped || shift != 0.0;
             d[a] -= shift;
@@ -636,10 +641,30 @@ std::optional<InitialOverlap> overlap_with_earlier(const std::vector<ParticleSpe
 
 std::optional<InitialOverlap> find_initial_overlap(const std::vector<ParticleSpec>& particles,
                                                    const Domain* domain, double max_fraction) {
-  if (particles.size() < 2) return std::nullopt;
+  const std::size_t n = particles.size();
+  if (n < 2) return std::nullopt;
   const SpecGrid grid = bin_specs(particles, domain);
-  for (std::size_t i = 0; i < particles.size(); ++i) {
-    if (auto found = overlap_with_earlier(particles, grid, i, max_fraction)) return found;
+  // In chunks of particles on every thread: the first chunk with an overlap holds the answer, and
+  // every chunk before it is searched whole, so it is the serial one for any thread count (a
+  // chunk after one known to have an overlap is skipped).
+  constexpr std::size_t kChunk = 4096;
+  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  std::vector<std::optional<InitialOverlap>> found(chunks);
+  std::atomic<std::size_t> first_found{chunks};
+#pragma omp parallel for schedule(dynamic) if (n >= kMinParallelParticles)
+  for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
+    if (chunk > first_found.load(std::memory_order_relaxed)) continue;
+    for (std::size_t i = chunk * kChunk; i < std::min(n, (chunk + 1) * kChunk); ++i) {
+      found[chunk] = overlap_with_earlier(particles, grid, i, max_fraction);
+      if (!found[chunk]) continue;
+      std::size_t known = first_found.load(std::memory_order_relaxed);
+      while (chunk < known && !first_found.compare_exchange_weak(known, chunk)) {
+      }
+      break;
+    }
+  }
+  for (const std::optional<InitialOverlap>& overlap : found) {
+    if (overlap) return overlap;
   }
   return std::nullopt;
 }
