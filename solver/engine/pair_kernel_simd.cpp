@@ -46,9 +46,9 @@ namespace hn = hwy::HWY_NAMESPACE;
 /// enough to keep the block's inputs in L1.
 constexpr std::uint32_t kLaneBlock = 64;
 
-/// A block of pairs in lane order: which particles (gathered by the lanes) and, where they are
-/// not the same for every pair, the bonding criterion and the material pair's constants. Lanes
-/// past the block's last pair repeat particle 0 and are masked out.
+/// A block of pairs in lane order: their particles, the kinematics the laws read and, where they
+/// are not the same for every pair, the bonding criterion and the material pair's constants.
+/// Lanes past the block's last pair hold a pair far apart (pad_block) and are masked out.
 struct PairBlock {
   static constexpr int kConstants = 12;
   // The pair's kinematics, gathered by a scalar loop (cheaper than vector gathers here).
