@@ -67,17 +67,13 @@ template <bool kFriction, bool kModels, class Law>
 ContactSummary Stepper::evaluate_forces(const Law& law) {
   const BondingCriterion criterion{scene_.particles, pair_forces_.bonded,
                                    pair_flag_ ? &pair_flag_ : nullptr};
-  ContactSummary pairs;
-  if constexpr (!kModels && std::is_same_v<Law, BondNormalLaw>) {
-    pairs = lane_constants_.empty()
-                ? compute_pair_forces<kFriction, kModels>(scene_.particles, scene_, list_, law,
-                                                          criterion, pair_forces_, history_)
-                : simd_pair_forces(scene_.particles, scene_, list_, lane_constants_, criterion,
-                                   pair_forces_, history_);
-  } else {
-    pairs = compute_pair_forces<kFriction, kModels>(scene_.particles, scene_, list_, law, criterion,
-                                                    pair_forces_, history_);
-  }
+  // The SIMD pass serves the runs whose every pair has a vector form (lane_constants_ is set).
+  const bool lanes = !kModels && std::is_same_v<Law, BondNormalLaw> && !lane_constants_.empty();
+  ContactSummary pairs =
+      lanes ? simd_pair_forces(scene_.particles, scene_, list_, lane_constants_, criterion,
+                               pair_forces_, history_)
+            : compute_pair_forces<kFriction, kModels>(scene_.particles, scene_, list_, law,
+                                                      criterion, pair_forces_, history_);
   // The boundaries' frames at their poses of this step, into storage kept across steps.
   boundary_frames_.clear();
   for (const Boundary& boundary : scene_.boundaries) boundary_frames_.push_back(frame_of(boundary));
