@@ -1,10 +1,9 @@
 // Per-target header (Highway's -inl.h convention): included once per SIMD target by
 // solver/engine/pair_kernel_simd.cpp through hwy/foreach_target.h, hence no #pragma once.
 /// @file contact_lanes-inl.h
-/// The damped Hertz contact and bond (bond_law.hpp, eq. 15, 22-26, alpha_adh = 1) and the
-/// Mindlin-Coulomb tangential spring (tangential_law.hpp) over SIMD lanes, one contact per lane.
-///
-/// Rolling resistance: the constant directional torque (rolling_law.hpp, Ai et al. model A).
+/// The damped Hertz contact and bond (bond_law.hpp, eq. 15, 22-26, alpha_adh = 1), the
+/// Mindlin-Coulomb tangential spring (tangential_law.hpp) and the constant directional rolling
+/// torque (rolling_law.hpp, Ai et al. model A) over SIMD lanes, one contact per lane.
 ///
 /// Same laws as the scalar headers, written with fewer roots and divisions: with the contact
 /// radius a = sqrt(r* delta),
