@@ -248,6 +248,9 @@ struct BondingCriterion {
   }
 };
 
+/// Particles (rows) per scheduling unit of pass 1, scalar and SIMD alike.
+inline constexpr std::size_t kPairPassChunk = 64;
+
 /// Pass 1: every candidate pair of @p list with the contact model of its material pair and the
 /// normal-force law @p law (force on i stored; j gets minus).
 /// @param criterion_met the bonding criterion; it reads out.bonded[k], which still holds the
@@ -270,15 +273,14 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
   double max_fraction = 0.0;
   const bool thermal = p.thermal();
   const bool rolling = kFriction && !out.roll_x.empty();
-  constexpr std::size_t kChunk = 64;     // particles per scheduling unit
   constexpr std::uint32_t kBlock = 128;  // pairs per geometry block
-  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  const std::size_t chunks = (n + kPairPassChunk - 1) / kPairPassChunk;
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) \
     reduction(+ : contacts, bonds, formed, broken) reduction(max : max_overlap, max_fraction)
   for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
     PairGeometryBlock<kBlock> geometry;
     list.for_each_pair_block<kBlock>(
-        chunk * kChunk, std::min(n, (chunk + 1) * kChunk),
+        chunk * kPairPassChunk, std::min(n, (chunk + 1) * kPairPassChunk),
         [&](std::uint32_t s, std::size_t i, std::size_t j, std::uint32_t k)
             __attribute__((always_inline)) { geometry.measure(s, p, list, i, j, k); },
         [&](std::uint32_t s, std::size_t i, std::size_t j, std::uint32_t k)

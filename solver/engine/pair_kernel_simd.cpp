@@ -224,21 +224,20 @@ HWY_INLINE void evaluate_block(const detail::LanePassArgs& a, PairBlock& b, std:
     const V radius_sum = ri + rj;
     const V overlap = radius_sum - distance;
     const M contact = hn::And(in_block, overlap > zero);
-    const V no_force = zero;
     if (hn::AllFalse(d, contact)) {
       // No contact in these lanes: no force, torque or bond, springs released.
-      store_lanes(d, no_force, valid, out.fx.data() + k);
-      store_lanes(d, no_force, valid, out.fy.data() + k);
-      store_lanes(d, no_force, valid, out.fz.data() + k);
-      hn::Store(no_force, d, b.bonded + s);
+      store_lanes(d, zero, valid, out.fx.data() + k);
+      store_lanes(d, zero, valid, out.fy.data() + k);
+      store_lanes(d, zero, valid, out.fz.data() + k);
+      hn::Store(zero, d, b.bonded + s);
       if constexpr (kFriction) {
         for (double* to : {out.cx.data(), out.cy.data(), out.cz.data(), out.overlap.data(),
                            history.sx.data(), history.sy.data(), history.sz.data()}) {
-          store_lanes(d, no_force, valid, to + k);
+          store_lanes(d, zero, valid, to + k);
         }
         if (a.rolling) {
           for (double* to : {out.roll_x.data(), out.roll_y.data(), out.roll_z.data()}) {
-            store_lanes(d, no_force, valid, to + k);
+            store_lanes(d, zero, valid, to + k);
           }
         }
       }
@@ -556,14 +555,14 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
   const auto pass = scene.friction ? HWY_DYNAMIC_DISPATCH(LanePassWithFriction)
                                    : HWY_DYNAMIC_DISPATCH(LanePassWithoutFriction);
   const std::size_t n = p.size();
-  constexpr std::size_t kChunk = 64;  // particles per scheduling unit, as the scalar pass
-  const std::size_t chunks = (n + kChunk - 1) / kChunk;
+  const std::size_t chunks = (n + kPairPassChunk - 1) / kPairPassChunk;
   std::size_t contacts = 0, bonds = 0, formed = 0, broken = 0;
   double max_overlap = 0.0, max_fraction = 0.0;
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) \
     reduction(+ : contacts, bonds, formed, broken) reduction(max : max_overlap, max_fraction)
   for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
-    const ContactSummary part = pass(args, chunk * kChunk, std::min(n, (chunk + 1) * kChunk));
+    const ContactSummary part =
+        pass(args, chunk * kPairPassChunk, std::min(n, (chunk + 1) * kPairPassChunk));
     contacts += part.contacts;
     bonds += part.bonds;
     formed += part.bonds_formed;
