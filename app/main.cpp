@@ -25,6 +25,7 @@
 #include "io/case_file.hpp"
 #include "io/run.hpp"
 #include "solver/engine/particles.hpp"
+#include "solver/engine/staggered_vector.hpp"
 #include "solver/engine/stepper.hpp"
 #include "solver/experiments/calculator.hpp"
 #include "solver/experiments/collision.hpp"
@@ -621,20 +622,9 @@ int run_command_line(int argc, char** argv) {
 
 }  // namespace
 
-namespace {
-
-/// Arrays of more than this many bytes get a mapping of their own from glibc's malloc, handed
-/// back to the system when freed. Without a fixed threshold glibc raises it (up to 32 MiB) after
-/// the first such array is freed, and the arrays that setup frees afterwards (the case's particle
-/// list, a neighbor build's scratch) stay resident in the heap: about 40 B a particle of a 10^6
-/// run. 1 MiB: a particle array from about 131 000 particles on, above every per-step buffer.
-constexpr int kOwnMappingBytes = 1 << 20;
-
-}  // namespace
-
 int main(int argc, char** argv) {
 #if defined(__GLIBC__)
-  mallopt(M_MMAP_THRESHOLD, kOwnMappingBytes);
+  mallopt(M_MMAP_THRESHOLD, static_cast<int>(bondem::kOwnMappingBytes));
 #endif
   // Setting up the options can fail too (memory): no exception may leave main as an abort.
   try {

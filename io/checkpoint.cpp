@@ -42,8 +42,8 @@ class Writer {
     static_assert(std::is_trivially_copyable_v<T>);
     append(reinterpret_cast<const char*>(&value), sizeof(T));
   }
-  template <class T>
-  void put(const std::vector<T>& values) {
+  template <class T, class Allocator>
+  void put(const std::vector<T, Allocator>& values) {
     put(static_cast<std::uint64_t>(values.size()));
     append(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(T));
   }
@@ -81,8 +81,8 @@ class Reader {
     take(&value, sizeof(T));
     return value;
   }
-  template <class T>
-  void get(std::vector<T>& values, std::uint64_t expected) {
+  template <class T, class Allocator>
+  void get(std::vector<T, Allocator>& values, std::uint64_t expected) {
     const auto size = get<std::uint64_t>();
     if (size != expected)
       fail("array of " + std::to_string(size) + " entries, expected " + std::to_string(expected));
@@ -405,7 +405,7 @@ void put_payload(Writer& payload, const CheckpointView& checkpoint, std::uint64_
     }
   };
   put_section(CheckpointSection::kParticle);
-  for (const std::vector<double>* axis : checkpoint.build_positions) payload.put(*axis);
+  for (const StaggeredVector<double>* axis : checkpoint.build_positions) payload.put(*axis);
   payload.put(static_cast<std::int32_t>(p.walls));
   put_section(CheckpointSection::kWall);
   // Field by field: the struct's padding bytes are not part of the state.

@@ -137,7 +137,7 @@ struct CheckpointView {
   const StepperState& stepper;
   const std::string& history;
   /// The neighbor list's build positions, x, y and z.
-  std::array<const std::vector<double>*, 3> build_positions;
+  std::array<const StaggeredVector<double>*, 3> build_positions;
   /// The pairs' carried state (a write visits it three times).
   SlipVisitor for_each_slip;
 };

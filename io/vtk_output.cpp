@@ -133,9 +133,9 @@ vtkIdType vtk_size(std::size_t n) {
   return static_cast<vtkIdType>(n);
 }
 
-/// A one-component Float64 array holding @p values.
-vtkSmartPointer<vtkDoubleArray> scalar_array(const std::string& name,
-                                             const std::vector<double>& values) {
+/// A one-component Float64 array holding @p values (a vector of doubles, of any allocator).
+template <class Values>
+vtkSmartPointer<vtkDoubleArray> scalar_array(const std::string& name, const Values& values) {
   auto array = vtkSmartPointer<vtkDoubleArray>::New();
   array->SetName(name.c_str());
   array->SetNumberOfComponents(1);
@@ -144,10 +144,11 @@ vtkSmartPointer<vtkDoubleArray> scalar_array(const std::string& name,
   return array;
 }
 
-/// A three-component Float64 array interleaving the SoA components @p x, @p y, @p z.
-vtkSmartPointer<vtkDoubleArray> vector_array(const std::string& name, const std::vector<double>& x,
-                                             const std::vector<double>& y,
-                                             const std::vector<double>& z) {
+/// A three-component Float64 array interleaving the SoA components @p x, @p y, @p z (vectors of
+/// doubles, of any allocator).
+template <class Values>
+vtkSmartPointer<vtkDoubleArray> vector_array(const std::string& name, const Values& x,
+                                             const Values& y, const Values& z) {
   auto array = vtkSmartPointer<vtkDoubleArray>::New();
   array->SetName(name.c_str());
   array->SetNumberOfComponents(3);
@@ -212,8 +213,8 @@ std::vector<TableArray> table_arrays(const Particles& p) {
 }
 
 /// The doubles of row @p field of @p p (vector components are doubles: particle_fields_consistent).
-const std::vector<double>& doubles(const Particles& p, const ParticleField& field) {
-  return p.*std::get<std::vector<double> Particles::*>(field.member);
+const StaggeredVector<double>& doubles(const Particles& p, const ParticleField& field) {
+  return p.*std::get<StaggeredVector<double> Particles::*>(field.member);
 }
 
 /// The VTK array of table array @p array: Int64, Int32 or Float64 as the member's type.
@@ -439,7 +440,7 @@ void check_inputs(const Particles& p, const std::vector<PlaneWall>& walls,
       throw std::invalid_argument("VTK output: field \"" + name + "\" is given twice");
     }
   };
-  const auto check_values = [&](const std::string& name, const std::vector<double>* values) {
+  const auto check_values = [&](const std::string& name, const auto* values) {
     if (values == nullptr || values->size() != n) {
       throw std::invalid_argument("VTK output: field \"" + name + "\" needs " + std::to_string(n) +
                                   " values, one per particle");

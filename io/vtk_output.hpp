@@ -54,9 +54,9 @@ class VtkSeriesWriter {
   /// A derived per-particle 3-vector, as three component arrays (the SoA layout).
   struct VectorField {
     std::string name;
-    const std::vector<double>* x = nullptr;
-    const std::vector<double>* y = nullptr;
-    const std::vector<double>* z = nullptr;
+    const StaggeredVector<double>* x = nullptr;
+    const StaggeredVector<double>* y = nullptr;
+    const StaggeredVector<double>* z = nullptr;
   };
 
   /// Create @p directory (and missing parents). Throws std::runtime_error naming it on failure.

@@ -117,7 +117,7 @@ PassResult run_pass(const Scene& scene, const NeighborList& list, bool simd) {
 }
 
 /// Every per-pair array of @p r, in one list, for comparisons.
-std::vector<const std::vector<double>*> arrays(const PassResult& r) {
+std::vector<const StaggeredVector<double>*> arrays(const PassResult& r) {
   const PairForces& f = r.forces;
   return {&f.fx,     &f.fy,     &f.fz,      &f.cx,         &f.cy,         &f.cz,        &f.roll_x,
           &f.roll_y, &f.roll_z, &f.overlap, &r.history.sx, &r.history.sy, &r.history.sz};

@@ -302,7 +302,7 @@ TEST(ThermalConservation, HeldWallSuppliesWhatItConducts) {
   double supplied = 0.0;
   int touching_steps = 0;
   for (int s = 0; s < 600; ++s) {
-    const std::vector<double> start = p.temperature;
+    const StaggeredVector<double> start = p.temperature;
     stepper.step();
     for (std::size_t i = 0; i < p.size(); ++i) {
       const double overlap = p.radius[i] - p.z[i];
@@ -557,7 +557,7 @@ std::size_t index_of(const Particles& p, std::int64_t id) {
 }
 
 int bonded_pairs(const Stepper& stepper) {
-  const std::vector<std::uint8_t>& bonded = stepper.pair_forces().bonded;
+  const StaggeredVector<std::uint8_t>& bonded = stepper.pair_forces().bonded;
   return static_cast<int>(std::count(bonded.begin(), bonded.end(), std::uint8_t{1}));
 }
 
@@ -638,9 +638,9 @@ TEST(ThermalBonding, SolidifiedNeckSurvivesCooling) {
 
 /// What must not depend on the thread count.
 struct ThermalSnapshot {
-  std::vector<std::int64_t> id;
-  std::vector<double> x, y, z, vx, vy, vz, temperature, peak_temperature;
-  std::vector<std::uint8_t> bonded;
+  StaggeredVector<std::int64_t> id;
+  StaggeredVector<double> x, y, z, vx, vy, vz, temperature, peak_temperature;
+  StaggeredVector<std::uint8_t> bonded;
   std::int64_t bonds_formed = 0, bonds_broken = 0, builds = 0;
   double laser_energy = 0.0, laser_missed = 0.0;
 };
@@ -670,8 +670,8 @@ ThermalSnapshot run_with_threads(const Case& c, int threads, int steps) {
           stepper.laser_missed()};
 }
 
-template <class T>
-bool same_bytes(const std::vector<T>& a, const std::vector<T>& b) {
+template <class T, class Allocator>
+bool same_bytes(const std::vector<T, Allocator>& a, const std::vector<T, Allocator>& b) {
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
 }
 

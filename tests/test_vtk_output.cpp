@@ -389,7 +389,7 @@ TEST_F(VtkOutput, FailedCollectionIsRolledBack) {
 /// make_particles() with temperatures, as a thermal run has them.
 Particles thermal_particles() {
   Particles p = make_particles();
-  for (std::vector<double>* field :
+  for (StaggeredVector<double>* field :
        {&p.temperature, &p.peak_temperature, &p.inv_heat_capacity, &p.heat_rate}) {
     field->resize(kParticles);
     for (std::size_t i = 0; i < kParticles; ++i) field->at(i) = 300.0 + static_cast<double>(i);

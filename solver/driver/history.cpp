@@ -30,7 +30,7 @@ std::vector<HistoryColumn> history_columns(const Scene& scene, const Stepper& st
       {"wall_contacts", "", [&, count] { return count(stepper.contacts().wall_contacts); }},
       {"max_overlap", "m", [&] { return stepper.contacts().max_overlap; }}};
   if (scene.particles.thermal()) {
-    const std::vector<double>& t = scene.particles.temperature;
+    const auto& t = scene.particles.temperature;
     columns.push_back(
         {"max_temperature", "K", [&t] { return *std::max_element(t.begin(), t.end()); }});
     columns.push_back({"mean_temperature", "K", [&t] {

@@ -26,6 +26,7 @@
 #include "solver/engine/mesh_candidates.hpp"
 #include "solver/engine/neighbor_list.hpp"
 #include "solver/engine/scene.hpp"
+#include "solver/engine/staggered_vector.hpp"
 #include "solver/models/contact_laws.hpp"
 #include "solver/models/contact_point.hpp"
 #include "solver/models/heat_law.hpp"
@@ -56,18 +57,18 @@ struct ContactSummary {
 /// length) x (n x F_t) (contact_point.hpp). Pass 2 multiplies n x F_t by its own particle's lever.
 /// Rolling torque (+ on i, - on j) takes 3 more only where the scene has rolling resistance.
 struct PairForces {
-  std::vector<double> fx, fy, fz;
-  std::vector<std::uint8_t> bonded;            ///< 1 where the pair is on the adhesive branch
-  std::vector<double> cx, cy, cz;              ///< n x F_t: torque per metre of lever (friction)
-  std::vector<double> overlap;                 ///< delta, which shortens both levers (friction)
-  std::vector<double> roll_x, roll_y, roll_z;  ///< rolling torque on i (rolling resistance)
-  std::vector<double> heat;                    ///< heat flow into i [W] (thermal runs)
-  std::vector<double> conductance;             ///< contact conductance H [W/K] (thermal runs)
+  StaggeredVector<double> fx, fy, fz;
+  StaggeredVector<std::uint8_t> bonded;  ///< 1 where the pair is on the adhesive branch
+  StaggeredVector<double> cx, cy, cz;    ///< n x F_t: torque per metre of lever (friction)
+  StaggeredVector<double> overlap;       ///< delta, which shortens both levers (friction)
+  StaggeredVector<double> roll_x, roll_y, roll_z;  ///< rolling torque on i (rolling resistance)
+  StaggeredVector<double> heat;                    ///< heat flow into i [W] (thermal runs)
+  StaggeredVector<double> conductance;             ///< contact conductance H [W/K] (thermal runs)
   void resize(std::size_t pairs, bool torques, bool rolling, bool thermal) {
-    for (std::vector<double>* f : {&fx, &fy, &fz}) f->resize(pairs);
+    for (StaggeredVector<double>* f : {&fx, &fy, &fz}) f->resize(pairs);
     bonded.resize(pairs);
-    for (std::vector<double>* t : {&cx, &cy, &cz, &overlap}) t->resize(torques ? pairs : 0);
-    for (std::vector<double>* t : {&roll_x, &roll_y, &roll_z}) {
+    for (StaggeredVector<double>* t : {&cx, &cy, &cz, &overlap}) t->resize(torques ? pairs : 0);
+    for (StaggeredVector<double>* t : {&roll_x, &roll_y, &roll_z}) {
       t->resize(torques && rolling ? pairs : 0);
     }
     heat.resize(thermal ? pairs : 0);
@@ -80,12 +81,12 @@ struct PairForces {
 /// EPSD rolling spring and the JKR flag. It is carried across list rebuilds by particle ids (see
 /// Stepper), so reordering never loses it.
 struct PairHistory {
-  std::vector<double> sx, sy, sz;
-  std::vector<double> rx, ry, rz;    ///< EPSD rolling spring torque [N m]
-  std::vector<std::uint8_t> joined;  ///< 1 while a JKR contact holds the pair
+  StaggeredVector<double> sx, sy, sz;
+  StaggeredVector<double> rx, ry, rz;    ///< EPSD rolling spring torque [N m]
+  StaggeredVector<std::uint8_t> joined;  ///< 1 while a JKR contact holds the pair
   void resize(std::size_t pairs, bool springs, bool contact_history) {
-    for (std::vector<double>* s : {&sx, &sy, &sz}) s->assign(springs ? pairs : 0, 0.0);
-    for (std::vector<double>* r : {&rx, &ry, &rz}) r->assign(contact_history ? pairs : 0, 0.0);
+    for (StaggeredVector<double>* s : {&sx, &sy, &sz}) s->assign(springs ? pairs : 0, 0.0);
+    for (StaggeredVector<double>* r : {&rx, &ry, &rz}) r->assign(contact_history ? pairs : 0, 0.0);
     joined.assign(contact_history ? pairs : 0, 0);
   }
 };
@@ -229,7 +230,8 @@ template <bool kFriction, bool kModels, class Law>
 /// The bonding criterion of eq. 25, chosen per material pair (PairCoefficients::criterion).
 struct BondingCriterion {
   const Particles& particles;
-  const std::vector<std::uint8_t>& bonded;  ///< the pairs' bond flags of the previous evaluation
+  const StaggeredVector<std::uint8_t>&
+      bonded;  ///< the pairs' bond flags of the previous evaluation
   /// Caller's per-pair decision for criterion kPairFlag (by particle ids); null when no material
   /// pair has that criterion.
   const std::function<bool(std::int64_t, std::int64_t)>* pair_flag;

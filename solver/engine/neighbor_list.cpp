@@ -109,7 +109,7 @@ void NeighborList::wrap_and_set_shifts(Particles& p, const Domain& domain) {
   const Eigen::Vector3d length = domain.length();
   for (int a = 0; a < 3; ++a) {
     if (!domain.periodic[a]) continue;
-    std::vector<double>& coord = a == 0 ? p.x : (a == 1 ? p.y : p.z);
+    StaggeredVector<double>& coord = a == 0 ? p.x : (a == 1 ? p.y : p.z);
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles)
     for (std::size_t i = 0; i < n; ++i) {
       coord[i] = wrap_periodic(coord[i], domain.min[a], length[a]);
@@ -288,7 +288,7 @@ void NeighborList::restore(Particles& p, const Domain& domain, double skin,
   }
   // The list is a function of the build positions alone: rebuild from them, then put the
   // current positions back. Wrapping already-wrapped coordinates leaves them unchanged.
-  std::vector<double> x = state.x0, y = state.y0, z = state.z0;
+  StaggeredVector<double> x = state.x0, y = state.y0, z = state.z0;
   p.x.swap(x);
   p.y.swap(y);
   p.z.swap(z);
@@ -297,19 +297,6 @@ void NeighborList::restore(Particles& p, const Domain& domain, double skin,
   p.y.swap(y);
   p.z.swap(z);
   builds_ = state.builds;
-}
-
-double NeighborList::max_displacement_sq(const Particles& p) const {
-  const std::size_t n = p.size();
-  double largest = 0.0;
-#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) reduction(max : largest)
-  for (std::size_t i = 0; i < n; ++i) {
-    const double dx = p.x[i] - x0_[i];
-    const double dy = p.y[i] - y0_[i];
-    const double dz = p.z[i] - z0_[i];
-    largest = std::max(largest, dx * dx + dy * dy + dz * dz);
-  }
-  return largest;
 }
 
 }  // namespace bondem

@@ -11,13 +11,14 @@
 
 #include "geometry/domain.hpp"
 #include "solver/engine/particles.hpp"
+#include "solver/engine/staggered_vector.hpp"
 
 namespace bondem {
 
 /// What a neighbor list needs to be rebuilt exactly as it was: the positions of its last build.
 struct NeighborListState {
   std::int64_t builds = 0;
-  std::vector<double> x0, y0, z0;
+  StaggeredVector<double> x0, y0, z0;
 };
 
 /// Half neighbor list in compressed rows: row i lists the particles j > i whose surfaces were
@@ -36,15 +37,21 @@ class NeighborList {
 
   /// Positions of the last build along @p axis (0, 1, 2: what save() copies), for a writer that
   /// streams them instead.
-  const std::vector<double>& build_positions(int axis) const {
+  const StaggeredVector<double>& build_positions(int axis) const {
     return axis == 0 ? x0_ : axis == 1 ? y0_ : z0_;
   }
 
   /// Rebuild the list of a saved state for particles in the same order (no reordering).
   void restore(Particles& p, const Domain& domain, double skin, const NeighborListState& state);
 
-  /// Largest squared displacement of any particle since the last build.
-  double max_displacement_sq(const Particles& p) const;
+  /// Squared displacement of particle @p i since the last build. The stepper takes the largest
+  /// in the sweep that moves the particles, so the check costs no pass of its own.
+  double displacement_sq(const Particles& p, std::size_t i) const {
+    const double dx = p.x[i] - x0_[i];
+    const double dy = p.y[i] - y0_[i];
+    const double dz = p.z[i] - z0_[i];
+    return dx * dx + dy * dy + dz * dz;
+  }
 
   /// Number of candidate pairs.
   std::size_t pair_count() const { return second_.size(); }
@@ -97,7 +104,7 @@ class NeighborList {
 
   /// First pair of each row, size row_count() + 1: row i holds pairs [row_begins()[i],
   /// row_begins()[i + 1]). For kernels that walk the list themselves (pair_kernel_simd.cpp).
-  const std::vector<std::uint32_t>& row_begins() const { return row_begin_; }
+  const StaggeredVector<std::uint32_t>& row_begins() const { return row_begin_; }
 
   /// Second particle j of pair k.
   std::size_t second(std::uint32_t k) const { return second_[k]; }
@@ -148,17 +155,17 @@ class NeighborList {
   /// Return the grid and per-thread buffers, which serve only while building.
   void release_scratch();
 
-  std::vector<std::uint32_t>
+  StaggeredVector<std::uint32_t>
       row_begin_;  ///< size n + 1: pairs of particle i are [row_begin_[i], row_begin_[i+1])
-  std::vector<std::uint32_t> second_;  ///< j of each pair
-  std::vector<std::uint8_t> image_;    ///< index into shifts_: periodic image of j seen from i
-  std::vector<std::uint32_t> column_begin_;  ///< size n + 1: transposed rows
-  std::vector<std::uint32_t> column_pair_;   ///< pair indices in which particle j is second
-  std::array<Eigen::Vector3d, 27> shifts_;   ///< add to x_j - x_i for image code k
-  std::int64_t builds_ = 0;                  ///< number of builds so far
+  StaggeredVector<std::uint32_t> second_;  ///< j of each pair
+  StaggeredVector<std::uint8_t> image_;    ///< index into shifts_: periodic image of j seen from i
+  StaggeredVector<std::uint32_t> column_begin_;  ///< size n + 1: transposed rows
+  StaggeredVector<std::uint32_t> column_pair_;   ///< pair indices in which particle j is second
+  std::array<Eigen::Vector3d, 27> shifts_;       ///< add to x_j - x_i for image code k
+  std::int64_t builds_ = 0;                      ///< number of builds so far
   std::array<int, 3> cells_{1, 1, 1};
   Eigen::Vector3d cell_width_ = Eigen::Vector3d::Ones();
-  std::vector<double> x0_, y0_, z0_;  ///< positions at the last build
+  StaggeredVector<double> x0_, y0_, z0_;  ///< positions at the last build
   // Scratch space of build(), released when it returns.
   std::vector<std::uint32_t> cell_of_;     ///< cell of each particle
   std::vector<std::uint32_t> cell_begin_;  ///< size cells + 1

@@ -363,7 +363,7 @@ ContactSummary LanePass(const detail::LanePassArgs& a, std::size_t first_row,
                         std::size_t last_row) {
   const hn::ScalableTag<double> d;
   const std::uint32_t lanes = static_cast<std::uint32_t>(hn::Lanes(d));
-  const std::vector<std::uint32_t>& row_begin = a.list->row_begins();
+  const StaggeredVector<std::uint32_t>& row_begin = a.list->row_begins();
   PairForces& out = *a.out;
   PairBlock b;
   LaneTally tally;

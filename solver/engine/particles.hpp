@@ -14,6 +14,8 @@
 #include <variant>
 #include <vector>
 
+#include "solver/engine/staggered_vector.hpp"
+
 namespace bondem {
 
 /// Below this many particles loops run on one thread: forking a team costs more than the work,
@@ -30,39 +32,39 @@ inline int threads_in_use(std::size_t particles) {
 /// Per-particle state. Index i addresses the same particle in every array; `id` is the stable
 /// identity that survives reordering. Every array is listed once in kParticleFields below.
 struct Particles {
-  std::vector<std::int64_t> id;
-  std::vector<std::int32_t> material;
-  std::vector<double> x, y, z;
-  std::vector<double> vx, vy, vz;
-  std::vector<double> fx, fy, fz;
-  std::vector<double> radius, mass;
-  std::vector<double> wx, wy, wz;  ///< angular velocity [rad/s]
-  std::vector<double> tx, ty, tz;  ///< torque [N m]
+  StaggeredVector<std::int64_t> id;
+  StaggeredVector<std::int32_t> material;
+  StaggeredVector<double> x, y, z;
+  StaggeredVector<double> vx, vy, vz;
+  StaggeredVector<double> fx, fy, fz;
+  StaggeredVector<double> radius, mass;
+  StaggeredVector<double> wx, wy, wz;  ///< angular velocity [rad/s]
+  StaggeredVector<double> tx, ty, tz;  ///< torque [N m]
   /// Displacement since the particle entered the run [m], summed from the drift's own position
   /// increments: x - x0 up to rounding, and not wrapped across periodic boundaries. Tracked only
   /// when displacement_tracked (the run writes VTK frames, its one reader): 24 B a particle.
-  std::vector<double> dx, dy, dz;
+  StaggeredVector<double> dx, dy, dz;
   bool displacement_tracked = false;
   /// Tangential spring elongation against each wall, 3 values per wall, wall_count() per particle.
-  std::vector<double> wall_slip;
+  StaggeredVector<double> wall_slip;
   int walls = 0;  ///< walls with a slot in wall_slip
   /// Per wall and particle, when contact_history: the EPSD rolling spring torque (3 values) and
   /// 1 while a JKR contact holds (a cohesive contact outlives zero overlap), 4 values per wall.
-  std::vector<double> wall_contact;
+  StaggeredVector<double> wall_contact;
   /// Whether some material pair keeps history beyond the tangential spring (EPSD rolling or JKR
   /// cohesion): then the kContactHistory fields are in use.
   bool contact_history = false;
   /// Per wall slot and particle, when mesh_contacts: the unit normal of the contact the slot held
   /// in the last evaluation (zero: none), 3 values. A mesh contact moving from one triangle to
   /// the next keeps its slot, and so its history, by this normal.
-  std::vector<double> wall_normal;
+  StaggeredVector<double> wall_normal;
   /// Whether some boundary is a triangle mesh: then the kMeshHistory fields are in use.
   bool mesh_contacts = false;
   // Thermal state; these arrays are empty when the case has no `thermal:` block.
-  std::vector<double> temperature;        ///< [K]
-  std::vector<double> peak_temperature;   ///< highest temperature reached so far [K]
-  std::vector<double> inv_heat_capacity;  ///< 1 / (m c_p) [K/J]
-  std::vector<double> heat_rate;          ///< net heat flow in, from the last evaluation [W]
+  StaggeredVector<double> temperature;        ///< [K]
+  StaggeredVector<double> peak_temperature;   ///< highest temperature reached so far [K]
+  StaggeredVector<double> inv_heat_capacity;  ///< 1 / (m c_p) [K/J]
+  StaggeredVector<double> heat_rate;          ///< net heat flow in, from the last evaluation [W]
 
   /// Whether temperatures are tracked.
   bool thermal() const { return !temperature.empty(); }
@@ -127,8 +129,8 @@ enum ParticleFieldFlag : unsigned {
 
 /// Pointer to one array of Particles, of any of the element types the table holds.
 using ParticleMember =
-    std::variant<std::vector<std::int64_t> Particles::*, std::vector<std::int32_t> Particles::*,
-                 std::vector<double> Particles::*>;
+    std::variant<StaggeredVector<std::int64_t> Particles::*,
+                 StaggeredVector<std::int32_t> Particles::*, StaggeredVector<double> Particles::*>;
 
 /// VTK place of the arrays a caller derives per frame (VtkSeriesWriter::write_frame's scalars
 /// and vectors): the particle file lists its arrays by ascending ParticleField::vtk_order.
@@ -218,7 +220,7 @@ inline bool in_use(const ParticleField& field, const Particles& p) {
 /// share its VTK order and are doubles; VTK arrays and their orders are unique and stay clear of
 /// the derived arrays' places; per-wall fields are doubles and not written to VTK.
 constexpr bool particle_fields_consistent() {
-  constexpr std::size_t kDouble = 2;  // variant index of std::vector<double> Particles::*
+  constexpr std::size_t kDouble = 2;  // variant index of StaggeredVector<double> Particles::*
   for (const ParticleField& a : kParticleFields) {
     if (a.name.empty()) return false;
     if (has(a, kPerWall) && (a.member.index() != kDouble || !a.vtk_name.empty())) return false;

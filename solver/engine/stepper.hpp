@@ -153,7 +153,6 @@ class Stepper {
   void drift(double dt);
   /// Second half kick and the heat step; returns whether every value stayed finite.
   bool finish_step(double dt);
-  void kick_spin(double half_dt);
   /// The per-pair state (springs, bond flags) of the pairs that have any, keyed by particle ids:
   /// what a checkpoint carries (save_state()).
   std::vector<SlipRecord> collect_slips() const;
@@ -167,8 +166,8 @@ class Stepper {
       std::uint32_t slot;
     };
     std::vector<Key> keys;
-    PairHistory history;               ///< springs, rolling springs and JKR flags, by slot
-    std::vector<std::uint8_t> bonded;  ///< bond flags, by slot
+    PairHistory history;                   ///< springs, rolling springs and JKR flags, by slot
+    StaggeredVector<std::uint8_t> bonded;  ///< bond flags, by slot
   };
   /// @p slips (a checkpoint's) as carried pairs.
   CarriedPairs carried_from(const std::vector<SlipRecord>& slips) const;
@@ -182,7 +181,7 @@ class Stepper {
   void carry_pairs(CarriedPairs carried);
   /// Whether slot @p k of @p history and @p bonded holds state: a spring, an EPSD rolling spring,
   /// a JKR hold or a bond.
-  bool carries_state(const PairHistory& history, const std::vector<std::uint8_t>& bonded,
+  bool carries_state(const PairHistory& history, const StaggeredVector<std::uint8_t>& bonded,
                      std::uint32_t k) const {
     const bool loaded =
         scene_.friction && (history.sx[k] != 0.0 || history.sy[k] != 0.0 || history.sz[k] != 0.0);

@@ -1,0 +1,87 @@
+#pragma once
+/// @file staggered_vector.hpp
+/// A std::vector whose large buffers start at staggered offsets within a page. glibc's malloc gives
+/// every buffer above its mapping threshold (kOwnMappingBytes, which bondem sets) a mapping of its
+/// own, so element i of every such array has the same address modulo 4 KiB and falls in the same
+/// set of the 8-way L1 cache: a loop over more than 8 of them evicts its own lines. Measured on
+/// the 998 400 lattice: one sweep over the 20 particle arrays of the drift ran 1.6 times slower
+/// than with the arrays at distinct offsets. Smaller buffers come from malloc's heap, where their
+/// sizes already spread their offsets. Addresses never reach a result.
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <cstdlib>
+#include <new>
+#include <vector>
+
+namespace bondem {
+
+/// Buffers of more than this many bytes get a mapping of their own from glibc's malloc, handed
+/// back to the system when freed (app/main.cpp sets it with mallopt). Without a fixed threshold
+/// glibc raises it (up to 32 MiB) after the first such buffer is freed, and the arrays that setup
+/// frees afterwards (the case's particle list, a neighbor build's scratch) stay resident in the
+/// heap: about 40 B a particle of a 10^6 run. 1 MiB: a particle array from about 131 000
+/// particles on, above every per-step buffer.
+inline constexpr std::size_t kOwnMappingBytes = std::size_t{1} << 20;
+/// Offsets step by one cache line through one page: 64 distinct L1 sets.
+inline constexpr std::size_t kStaggerStep = 64;
+inline constexpr std::size_t kStaggerSlots = 4096 / kStaggerStep;
+
+/// Next stagger slot, round robin over the large buffers allocated so far.
+inline std::size_t next_stagger_slot() {
+  static std::atomic<std::size_t> counter{0};
+  return counter.fetch_add(1, std::memory_order_relaxed) % kStaggerSlots;
+}
+
+/// Allocator of StaggeredVector: large buffers get a 64-B aligned start at the next slot's offset
+/// and keep malloc's own pointer just before it, for deallocate.
+template <class T>
+struct StaggeredAllocator {
+  using value_type = T;
+
+  StaggeredAllocator() = default;
+  template <class U>
+  StaggeredAllocator(const StaggeredAllocator<U>& /*other*/) {}  // NOLINT: rebinding converts
+
+  T* allocate(std::size_t n) {
+    const std::size_t bytes = n * sizeof(T);
+    if (bytes < kOwnMappingBytes) {
+      if (void* plain = std::malloc(bytes > 0 ? bytes : 1)) return static_cast<T*>(plain);
+      throw std::bad_alloc();
+    }
+    // Room for malloc's pointer, the alignment and the largest offset.
+    constexpr std::size_t kPadding = sizeof(void*) + kStaggerStep + 4096;
+    if (bytes > static_cast<std::size_t>(PTRDIFF_MAX) - kPadding) throw std::bad_array_new_length();
+    void* raw = std::malloc(bytes + kPadding);
+    if (raw == nullptr) throw std::bad_alloc();
+    const std::uintptr_t first = reinterpret_cast<std::uintptr_t>(raw) + sizeof(void*);
+    const std::uintptr_t aligned = (first + kStaggerStep - 1) / kStaggerStep * kStaggerStep;
+    const std::uintptr_t start = aligned + next_stagger_slot() * kStaggerStep;
+    reinterpret_cast<void**>(start)[-1] = raw;
+    return reinterpret_cast<T*>(start);
+  }
+
+  void deallocate(T* pointer, std::size_t n) {
+    if (n * sizeof(T) < kOwnMappingBytes) {
+      std::free(pointer);
+    } else {
+      std::free(reinterpret_cast<void**>(pointer)[-1]);
+    }
+  }
+
+  template <class U>
+  bool operator==(const StaggeredAllocator<U>& /*other*/) const {
+    return true;
+  }
+  template <class U>
+  bool operator!=(const StaggeredAllocator<U>& /*other*/) const {
+    return false;
+  }
+};
+
+/// A vector for the per-particle and per-pair arrays that the kernels stream side by side.
+template <class T>
+using StaggeredVector = std::vector<T, StaggeredAllocator<T>>;
+
+}  // namespace bondem
