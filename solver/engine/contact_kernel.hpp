@@ -230,8 +230,8 @@ template <bool kFriction, bool kModels, class Law>
 /// The bonding criterion of eq. 25, chosen per material pair (PairCoefficients::criterion).
 struct BondingCriterion {
   const Particles& particles;
-  const StaggeredVector<std::uint8_t>&
-      bonded;  ///< the pairs' bond flags of the previous evaluation
+  /// The pairs' bond flags of the previous evaluation.
+  const StaggeredVector<std::uint8_t>& bonded;
   /// Caller's per-pair decision for criterion kPairFlag (by particle ids); null when no material
   /// pair has that criterion.
   const std::function<bool(std::int64_t, std::int64_t)>* pair_flag;
@@ -547,8 +547,8 @@ struct ParticleLoad {
 /// Adds particle i's pairs to @p load: its own row as stored, then the pairs in which it is the
 /// second member with force, heat and rolling torque reversed (the lever torque keeps its sign).
 /// The sums run in plain locals, one per component, in the same order as adding to @p load: a
-/// ParticleLoad held by reference stays in memory, and every add then waits for the store of the
-/// one before it (measured: that chain was most of pass 2).
+/// ParticleLoad held by reference stayed in memory, and every add waited for the store of the one
+/// before it (measured: the locals made the 20 800 peer lattice 1.10 times faster).
 template <bool kFriction>
 [[gnu::always_inline]] inline void gather_pairs(const Particles& p, const NeighborList& list,
                                                 const PairForces& pf, std::size_t i, bool thermal,
@@ -563,10 +563,11 @@ template <bool kFriction>
     fy += sign * pf.fy[k];
     fz += sign * pf.fz[k];
     if constexpr (kFriction) {
-      const double lever = pair_lever(radius, pf.overlap[k]);
-      tx += lever * pf.cx[k];
-      ty += lever * pf.cy[k];
-      tz += lever * pf.cz[k];
+      const Eigen::Vector3d torque = lever_torque(pair_lever(radius, pf.overlap[k]),
+                                                  Eigen::Vector3d(pf.cx[k], pf.cy[k], pf.cz[k]));
+      tx += torque.x();
+      ty += torque.y();
+      tz += torque.z();
       if (rolling) {
         tx += sign * pf.roll_x[k];
         ty += sign * pf.roll_y[k];

@@ -26,6 +26,7 @@ namespace bondem {
 inline constexpr std::size_t kOwnMappingBytes = std::size_t{1} << 20;
 /// Offsets step by one cache line through one page: 64 distinct L1 sets.
 inline constexpr std::size_t kStaggerStep = 64;
+/// Distinct offsets in a 4 KiB page.
 inline constexpr std::size_t kStaggerSlots = 4096 / kStaggerStep;
 
 /// Next stagger slot, round robin over the large buffers allocated so far.
@@ -38,6 +39,7 @@ inline std::size_t next_stagger_slot() {
 /// and keep malloc's own pointer just before it, for deallocate.
 template <class T>
 struct StaggeredAllocator {
+  static_assert(alignof(T) <= alignof(std::max_align_t), "malloc's alignment is all it gives");
   using value_type = T;
 
   StaggeredAllocator() = default;
