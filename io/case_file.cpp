@@ -368,14 +368,19 @@ int material_index(const Reader& reader, const Case& c, const YAML::Node& body,
   return material_named(reader, c, reader.require(body, path, "material"), path + ".material");
 }
 
-Box read_box(const Reader& reader, const YAML::Node& node, const std::string& path) {
+Box read_box(const Reader& reader, const YAML::Node& node, const std::string& path,
+             bool allow_flat = false) {
   reader.expect_map(node, path);
   reader.check_keys(node, path, {"min", "max"});
   Box box;
   box.min = reader.vector3(reader.require(node, path, "min"), path + ".min");
   const YAML::Node max = reader.require(node, path, "max");
   box.max = reader.vector3(max, path + ".max");
-  if (!(box.max.array() > box.min.array()).all()) {
+  if (allow_flat) {
+    if (!(box.max.array() >= box.min.array()).all()) {
+      reader.fail(max, path + ".max", "must not be below min on any axis");
+    }
+  } else if (!(box.max.array() > box.min.array()).all()) {
     reader.fail(max, path + ".max", "must exceed min on every axis");
   }
   return box;
@@ -806,9 +811,8 @@ void check_initial_overlaps(const Reader& reader, const Case& c,
 
 /// A periodic axis needs three neighbor cells of 2 * largest radius + skin (NeighborList).
 void check_periodic_axes(const Reader& reader, const Case& c, const YAML::Node& root) {
-  if (!c.domain || c.particles.empty()) return;
-  double max_radius = 0.0;
-  for (const ParticleSpec& p : c.particles) max_radius = std::max(max_radius, p.radius);
+  const double max_radius = largest_radius(c);
+  if (!c.domain || max_radius == 0.0) return;
   const double skin = verlet_skin(c, max_radius);
   const double cell = 2.0 * max_radius + skin;
   const Eigen::Vector3d length = c.domain->length();
@@ -828,6 +832,71 @@ void check_periodic_axes(const Reader& reader, const Case& c, const YAML::Node& 
     }
     reader.fail(root["domain"]["periodic"], "domain.periodic", what + "; enlarge the domain");
   }
+}
+
+/// An `insert:` entry of type `stream` (the caller has read its type).
+StreamInsertion read_stream(const Reader& reader, const Case& c, const YAML::Node& body,
+                            const std::string& path) {
+  reader.check_keys(body, path,
+                    {"type", "region", "material", "radius", "rate", "mass_rate", "start", "end",
+                     "velocity", "seed", "max_attempts", "temperature"});
+  if (!c.domain) {
+    reader.fail(body, path, "a stream needs a `domain:` (the grid its particles are added to)");
+  }
+  StreamInsertion s;
+  const YAML::Node region = reader.require(body, path, "region");
+  s.region = read_box(reader, region, path + ".region", /*allow_flat=*/true);
+  s.material = material_index(reader, c, body, path);
+  const YAML::Node radius = reader.require(body, path, "radius");
+  s.radius = read_radius(reader, radius, path + ".radius");
+  const double largest = largest_radius(s.radius);
+  if (!(largest > 0.0) || !(smallest_radius(s.radius) > 0.0)) {
+    reader.fail(radius, path + ".radius",
+                "a stream's radii need both bounds (min and max cut-offs of a normal or "
+                "log-normal distribution), so that the neighbor grid and the time step allow "
+                "for its largest and smallest particle");
+  }
+  static constexpr const char* kAxis[3] = {"x", "y", "z"};
+  for (int a = 0; a < 3; ++a) {
+    if (s.region.min[a] < c.domain->min[a] || s.region.max[a] > c.domain->max[a]) {
+      reader.fail(region, path + ".region",
+                  std::string("reaches outside the domain along ") + kAxis[a]);
+    }
+    const double extent = s.region.max[a] - s.region.min[a];
+    if (extent > 0.0 && extent < 2.0 * largest) {
+      reader.fail(region, path + ".region",
+                  std::string("is ") + message_number(extent) + " m along " + kAxis[a] +
+                      ", less than the largest diameter " + message_number(2.0 * largest) +
+                      " m (make it 0 for a face, or wider)");
+    }
+  }
+  const YAML::Node rate = body["rate"];
+  const YAML::Node mass_rate = body["mass_rate"];
+  if ((rate && mass_rate) || (!rate && !mass_rate)) {
+    reader.fail(body, path, "give exactly one of rate (particles/s) and mass_rate (kg/s)");
+  }
+  if (rate) s.particle_rate = reader.positive(rate, path + ".rate");
+  if (mass_rate) s.mass_rate = reader.positive(mass_rate, path + ".mass_rate");
+  if (const YAML::Node start = body["start"]) {
+    s.start_time = reader.non_negative(start, path + ".start");
+  }
+  s.end_time = c.end_time;
+  if (const YAML::Node end = body["end"]) s.end_time = reader.positive(end, path + ".end");
+  if (!(s.end_time > s.start_time)) {
+    reader.fail(body["end"] ? body["end"] : body, path + ".end",
+                "ends at " + message_number(s.end_time) + " s, not after its start " +
+                    message_number(s.start_time) + " s");
+  }
+  if (const YAML::Node v = body["velocity"]) s.velocity = reader.velocity(v, path + ".velocity");
+  if (const YAML::Node seed = body["seed"]) {
+    s.seed = static_cast<std::uint64_t>(reader.integer(seed, path + ".seed", 0, 1LL << 62));
+  }
+  if (const YAML::Node attempts = body["max_attempts"]) {
+    s.max_attempts =
+        static_cast<std::size_t>(reader.integer(attempts, path + ".max_attempts", 1, 1000000));
+  }
+  s.temperature = particle_temperature(reader, c, body, path);
+  return s;
 }
 
 void read_insertions(const Reader& reader, Case& c, const YAML::Node& insert,
@@ -900,8 +969,12 @@ void read_insertions(const Reader& reader, Case& c, const YAML::Node& insert,
               reader.integer(attempts, path + ".max_attempts", 1, 100000000));
         }
         added = insert_random_fill(request, c.particles);
+      } else if (kind == "stream") {
+        c.streams.push_back(read_stream(reader, c, body, path));
+        continue;
       } else {
-        reader.fail(type, path + ".type", "unknown insertion '" + kind + "' (lattice or random)");
+        reader.fail(type, path + ".type",
+                    "unknown insertion '" + kind + "' (lattice, random or stream)");
       }
     } catch (const CaseError&) {
       throw;
@@ -1305,9 +1378,10 @@ void check_heat_capacities(const Reader& reader, const YAML::Node& root, Case& c
 /// A bond whose equilibrium overlap the run's own overlap limit forbids would stop every run that
 /// bonds: refuse delta_eq at or above limits.max_overlap_fraction of the smallest radius.
 void check_equilibrium_overlap(const Reader& reader, const YAML::Node& root, const Case& c) {
-  if (c.particles.empty()) return;
-  double smallest = c.particles.front().radius;
+  double smallest = std::numeric_limits<double>::infinity();
   for (const ParticleSpec& p : c.particles) smallest = std::min(smallest, p.radius);
+  for (const StreamInsertion& s : c.streams)
+    smallest = std::min(smallest, smallest_radius(s.radius));
   const double limit = c.max_overlap_fraction * smallest;
   const auto check = [&](const BondModel& bond, const YAML::Node& node, const std::string& path) {
     if (bond.criterion == BondCriterion::kNever ||
@@ -1493,7 +1567,9 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
     check_inside(reader, c, c.particles[k], particles[k], Reader::join("particles", k));
   }
   if (const YAML::Node insert = root["insert"]) read_insertions(reader, c, insert, entries);
-  if (c.particles.empty()) reader.fail(root, "particles", "the case has no particles");
+  if (c.particles.empty() && c.streams.empty()) {
+    reader.fail(root, "particles", "the case has no particles (and no stream inserts any)");
+  }
   check_heat_capacities(reader, root, c);
   check_equilibrium_overlap(reader, root, c);
 

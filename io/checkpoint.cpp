@@ -425,6 +425,12 @@ void put_payload(Writer& payload, const CheckpointView& checkpoint, std::uint64_
   payload.put(s.bonds_broken);
   payload.put(s.laser_energy);
   payload.put(s.laser_missed);
+  payload.put(s.next_particle_id);
+  payload.put(static_cast<std::uint64_t>(s.streams.size()));
+  for (const StreamProgress& stream : s.streams) {
+    payload.put(stream.inserted);
+    payload.put(stream.mass);
+  }
   // Thermal arrays, one value per particle, only in thermal runs.
   payload.put(static_cast<std::uint8_t>(p.thermal() ? 1 : 0));
   if (p.thermal()) put_section(CheckpointSection::kThermal);
@@ -610,7 +616,16 @@ Checkpoint read_checkpoint(const std::string& path) {
   s.bonds_broken = r.get<std::int64_t>();
   s.laser_energy = r.get<double>();
   s.laser_missed = r.get<double>();
-  if (r.get<std::uint8_t>() != 0) get_section(CheckpointSection::kThermal);
+  s.next_particle_id = r.get<std::int64_t>();
+  const auto streams = r.get<std::uint64_t>();
+  r.check_room(streams, sizeof(std::int64_t) + sizeof(double));
+  s.streams.resize(streams);
+  for (StreamProgress& stream : s.streams) {
+    stream.inserted = r.get<std::int64_t>();
+    stream.mass = r.get<double>();
+  }
+  p.temperatures_tracked = r.get<std::uint8_t>() != 0;
+  if (p.temperatures_tracked) get_section(CheckpointSection::kThermal);
   p.contact_history = r.get<std::uint8_t>() != 0;
   if (p.contact_history) get_section(CheckpointSection::kContactHistory);
   p.displacement_tracked = r.get<std::uint8_t>() != 0;

@@ -24,7 +24,7 @@ class CheckpointError : public std::runtime_error {
 };
 
 /// Format version written into every checkpoint; readers refuse any other.
-inline constexpr std::uint32_t kCheckpointVersion = 6;
+inline constexpr std::uint32_t kCheckpointVersion = 7;
 
 /// Where a checkpointed particle field sits in the file: per-particle arrays right after the
 /// particle count, per-wall arrays after the wall count, thermal arrays after the thermal flag,
@@ -48,7 +48,7 @@ constexpr CheckpointSection checkpoint_section(const ParticleField& field) {
   return has(field, kPerWall) ? CheckpointSection::kWall : CheckpointSection::kParticle;
 }
 
-/// The particle fields of a version-6 checkpoint in file order. Not a list the code reads: a
+/// The particle fields of a version-7 checkpoint in file order. Not a list the code reads: a
 /// guard. Checkpointing another field (or dropping or moving one) in kParticleFields fails to
 /// compile until this list and kCheckpointVersion change with it, so that older checkpoints are
 /// refused by their version instead of misread.

@@ -51,8 +51,20 @@ std::string checkpoint_misfit(const Checkpoint& restored, const Scene& scene,
                               std::size_t materials) {
   const Particles& p = restored.particles;
   const Particles& expected = scene.particles;
-  if (p.size() != expected.size()) {
-    return std::to_string(p.size()) + " particles, the case has " + std::to_string(expected.size());
+  if (restored.stepper.streams.size() != scene.streams.size()) {
+    return std::to_string(restored.stepper.streams.size()) + " particle streams, the case has " +
+           std::to_string(scene.streams.size());
+  }
+  // The case's own particles, and what its streams inserted up to the checkpoint.
+  std::size_t inserted = 0;
+  for (const StreamProgress& stream : restored.stepper.streams) {
+    if (stream.inserted < 0) return "a negative inserted count";
+    inserted += static_cast<std::size_t>(stream.inserted);
+  }
+  if (p.size() != expected.size() + inserted) {
+    return std::to_string(p.size()) + " particles, the case has " +
+           std::to_string(expected.size()) + " and its streams inserted " +
+           std::to_string(inserted);
   }
   if (p.walls != expected.walls) {
     return std::to_string(p.walls) + " boundary contact slots, the case has " +

@@ -36,6 +36,7 @@ Particles filled() {
   p.contact_history = true;
   p.displacement_tracked = true;
   p.mesh_contacts = true;
+  p.temperatures_tracked = true;
   std::size_t row = 0;
   for (const ParticleField& field : kParticleFields) {
     const std::size_t per = values_per_particle(field, p);
@@ -144,6 +145,7 @@ TEST(ParticleFields, CheckpointKeepsEveryCheckpointedFieldExactly) {
     written.particles.contact_history = thermal;
     written.particles.displacement_tracked = thermal;
     written.particles.mesh_contacts = thermal;
+    written.particles.temperatures_tracked = thermal;
     if (!thermal) {
       for (const ParticleField& field : kParticleFields) {
         if (!in_use(field, written.particles) || has(field, kThermal)) {

@@ -135,10 +135,7 @@ TEST_F(VtkOutput, ThreeFramesReadBackExactly) {
   const std::vector<Boundary> walls = make_walls();
   // Angular velocity and temperature are the particles' own fields (kParticleFields); the
   // coordination is a field derived per frame, passed by the caller.
-  p.temperature.assign(kParticles, 0.0);
-  p.peak_temperature.assign(kParticles, 0.0);
-  p.inv_heat_capacity.assign(kParticles, 0.0);
-  p.heat_rate.assign(kParticles, 0.0);
+  p.track_temperatures();
   std::vector<double> coordination(kParticles);
   const double times[3] = {0.0, 0.5e-3, 1e-3};
   for (int frame = 0; frame < 3; ++frame) {
@@ -389,9 +386,9 @@ TEST_F(VtkOutput, FailedCollectionIsRolledBack) {
 /// make_particles() with temperatures, as a thermal run has them.
 Particles thermal_particles() {
   Particles p = make_particles();
+  p.track_temperatures();
   for (StaggeredVector<double>* field :
        {&p.temperature, &p.peak_temperature, &p.inv_heat_capacity, &p.heat_rate}) {
-    field->resize(kParticles);
     for (std::size_t i = 0; i < kParticles; ++i) field->at(i) = 300.0 + static_cast<double>(i);
   }
   return p;

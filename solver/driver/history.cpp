@@ -29,11 +29,29 @@ std::vector<HistoryColumn> history_columns(const Scene& scene, const Stepper& st
       {"bonds_broken", "", [&, count] { return count(stepper.bonds_broken()); }},
       {"wall_contacts", "", [&, count] { return count(stepper.contacts().wall_contacts); }},
       {"max_overlap", "m", [&] { return stepper.contacts().max_overlap; }}};
+  if (!scene.streams.empty()) {
+    // Particles in the run, and what the streams added: count and mass, all streams together.
+    columns.push_back({"particles", "", [&, count] { return count(scene.particles.size()); }});
+    columns.push_back({"inserted", "", [&, count] {
+                         std::int64_t inserted = 0;
+                         for (const StreamProgress& s : stepper.streams()) inserted += s.inserted;
+                         return count(inserted);
+                       }});
+    columns.push_back({"inserted_mass", "kg", [&] {
+                         double mass = 0.0;
+                         for (const StreamProgress& s : stepper.streams()) mass += s.mass;
+                         return mass;
+                       }});
+  }
   if (scene.particles.thermal()) {
+    // A stream's run may start with no particle: the surroundings' temperature stands in.
     const auto& t = scene.particles.temperature;
-    columns.push_back(
-        {"max_temperature", "K", [&t] { return *std::max_element(t.begin(), t.end()); }});
-    columns.push_back({"mean_temperature", "K", [&t] {
+    const double ambient = scene.ambient_temperature;
+    columns.push_back({"max_temperature", "K", [&t, ambient] {
+                         return t.empty() ? ambient : *std::max_element(t.begin(), t.end());
+                       }});
+    columns.push_back({"mean_temperature", "K", [&t, ambient] {
+                         if (t.empty()) return ambient;
                          double sum = 0.0;
                          for (const double value : t) sum += value;  // index order: any threads
                          return sum / static_cast<double>(t.size());

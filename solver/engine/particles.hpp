@@ -66,8 +66,9 @@ struct Particles {
   StaggeredVector<double> inv_heat_capacity;  ///< 1 / (m c_p) [K/J]
   StaggeredVector<double> heat_rate;          ///< net heat flow in, from the last evaluation [W]
 
-  /// Whether temperatures are tracked.
-  bool thermal() const { return !temperature.empty(); }
+  /// Whether temperatures are tracked (set by track_temperatures(); kept with no particles yet).
+  bool thermal() const { return temperatures_tracked; }
+  bool temperatures_tracked = false;  ///< see thermal()
 
   /// Start tracking displacements (the kDisplacementField fields), from zero.
   void track_displacement();
@@ -310,6 +311,7 @@ inline void Particles::track_displacement() {
 }
 
 inline void Particles::track_temperatures() {
+  temperatures_tracked = true;
   for (const ParticleField& field : kParticleFields) {
     if (has(field, kThermal)) {
       std::visit([&](auto member) { (this->*member).assign(size(), {}); }, field.member);

@@ -83,9 +83,8 @@ Scene build_scene(const Case& description) {
   scene.normal_law = description.normal_law;
   scene.gravity = description.gravity;
   scene.time_step = description.time_step;
-  double max_radius = 0.0;
-  for (const ParticleSpec& spec : description.particles)
-    max_radius = std::max(max_radius, spec.radius);
+  const double max_radius = largest_radius(description);
+  scene.largest_radius = max_radius;
   scene.skin = verlet_skin(description, max_radius);
   scene.reorder_interval = description.reorder_interval;
   scene.max_overlap_fraction = description.max_overlap_fraction;
@@ -136,12 +135,14 @@ Scene build_scene(const Case& description) {
     scene.particles.add(next_id++, spec.material, spec.radius, sphere_mass(spec.radius, density),
                         spec.position.data(), spec.velocity.data());
   }
+  for (const StreamInsertion& stream : description.streams) {
+    const Material& m = description.materials[static_cast<std::size_t>(stream.material)];
+    scene.streams.push_back({stream, m.density, m.specific_heat});
+  }
   if (description.thermal) {
     const ThermalModel& thermal = *description.thermal;
     Particles& p = scene.particles;
-    p.temperature.resize(p.size());
-    p.inv_heat_capacity.resize(p.size());
-    p.heat_rate.assign(p.size(), 0.0);
+    p.track_temperatures();
     for (std::size_t i = 0; i < p.size(); ++i) {
       const Material& m = description.materials[static_cast<std::size_t>(p.material[i])];
       p.temperature[i] = description.particles[i].temperature;

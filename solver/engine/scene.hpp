@@ -9,6 +9,7 @@
 
 #include "geometry/boundary.hpp"
 #include "geometry/domain.hpp"
+#include "solver/engine/particle_stream.hpp"
 #include "solver/engine/particles.hpp"
 #include "solver/models/normal_laws.hpp"
 #include "solver/models/pair.hpp"
@@ -41,6 +42,10 @@ struct Scene {
   double convection_coefficient = 0.0;  ///< h [W/(m^2 K)]
   std::vector<double> emissivity;       ///< per material, 0 without radiation
   std::optional<Laser> laser;
+  /// Insertions during the run, each with its material's data (Stepper inserts their particles).
+  std::vector<ParticleStream> streams;
+  /// Largest radius of any particle the run holds or its streams can insert [m].
+  double largest_radius = 0.0;
 
   /// Whether any material pair has rolling resistance (then pairs store a rolling torque).
   bool rolling() const {

@@ -32,6 +32,8 @@ Stepper::Stepper(Scene& scene, PairFlag pair_flag)
   build_mesh_candidates(scene_, mesh_candidates_);
   compute_forces(std::numeric_limits<double>::quiet_NaN());
   bonds_formed_ = static_cast<std::int64_t>(contacts_.bonds_formed);
+  streams_.assign(scene_.streams.size(), StreamProgress{});
+  for (const std::int64_t id : scene_.particles.id) next_id_ = std::max(next_id_, id + 1);
 }
 
 Stepper::Stepper(Scene& scene, StepperState restored, PairFlag pair_flag)
@@ -71,6 +73,11 @@ Stepper::Stepper(Scene& scene, StepperState restored, PairFlag pair_flag)
   bonds_broken_ = restored.bonds_broken;
   laser_energy_ = restored.laser_energy;
   laser_missed_ = restored.laser_missed;
+  if (restored.streams.size() != scene_.streams.size()) {
+    throw std::invalid_argument("saved state does not match the case's streams");
+  }
+  streams_ = std::move(restored.streams);
+  next_id_ = restored.next_particle_id;
 }
 
 template <bool kFriction, bool kModels, class Law>
@@ -281,8 +288,9 @@ void Stepper::drift(double dt) {
   }
   // Two particles moving toward each other close the gap by twice the largest displacement:
   // rebuild once that displacement exceeds half the skin.
+  const bool inserted = !scene_.streams.empty() && insert_from_streams(time_ + dt);
   const double half_skin = 0.5 * scene_.skin;
-  if (largest_sq > half_skin * half_skin) {
+  if (largest_sq > half_skin * half_skin || inserted) {
     rebuild_list();
   } else if (mesh_moved_half_skin(scene_, mesh_candidates_)) {
     build_mesh_candidates(scene_, mesh_candidates_);
@@ -316,6 +324,15 @@ bool Stepper::finish_step(double dt) {
     laser_missed_ += laser_missed_power_ * dt;
   }
   return finite;
+}
+
+bool Stepper::insert_from_streams(double time) {
+  std::size_t added = 0;
+  for (std::size_t k = 0; k < scene_.streams.size(); ++k) {
+    added += insert_due_particles(scene_.streams[k], k, time, step_count_ + 1, scene_.domain,
+                                  scene_.largest_radius, scene_.particles, next_id_, streams_[k]);
+  }
+  return added > 0;
 }
 
 void Stepper::step() {
@@ -457,6 +474,8 @@ StepperState Stepper::save_state(SavedArrays arrays) const {
   state.bonds_broken = bonds_broken_;
   state.laser_energy = laser_energy_;
   state.laser_missed = laser_missed_;
+  state.streams = streams_;
+  state.next_particle_id = next_id_;
   for (const Boundary& boundary : scene_.boundaries) {
     for (int a = 0; a < 3; ++a) state.boundaries.push_back(boundary.center[a]);
     for (int a = 0; a < 3; ++a) state.boundaries.push_back(boundary.velocity[a]);

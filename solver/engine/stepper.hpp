@@ -67,10 +67,12 @@ struct StepperState {
   std::vector<SlipRecord> slips;  ///< springs and bond flags of the pairs in contact
   /// Pose of every boundary, kBoundaryStateValues each: centre, velocity, angle, angular velocity.
   std::vector<double> boundaries;
-  std::int64_t bonds_formed = 0;  ///< bonds formed so far
-  std::int64_t bonds_broken = 0;  ///< bonds lost so far
-  double laser_energy = 0.0;      ///< laser energy absorbed by particles so far [J]
-  double laser_missed = 0.0;      ///< absorbable laser energy that found no particle [J]
+  std::int64_t bonds_formed = 0;        ///< bonds formed so far
+  std::int64_t bonds_broken = 0;        ///< bonds lost so far
+  double laser_energy = 0.0;            ///< laser energy absorbed by particles so far [J]
+  double laser_missed = 0.0;            ///< absorbable laser energy that found no particle [J]
+  std::vector<StreamProgress> streams;  ///< what each of the scene's streams inserted so far
+  std::int64_t next_particle_id = 0;    ///< id of the next particle a stream inserts
 };
 
 /// Whether Stepper::save_state() copies the arrays of the state.
@@ -139,6 +141,8 @@ class Stepper {
   double laser_energy() const { return laser_energy_; }
   /// Absorbable laser energy that fell between the particles, on the substrate, so far [J].
   double laser_missed() const { return laser_missed_; }
+  /// What each of the scene's streams inserted so far.
+  const std::vector<StreamProgress>& streams() const { return streams_; }
 
  private:
   /// Forces (and heat flows) at the current positions; @p laser_time, when finite, is the time at
@@ -149,8 +153,11 @@ class Stepper {
   ContactSummary evaluate_forces(const Law& law);
   /// The laser's heat deposit of this step into p.heat_rate (thermal runs with a laser).
   void deposit_laser(double laser_time);
-  /// Half kick, drift, and a list rebuild when some particle has moved half the skin.
+  /// Half kick, drift, the particles of the streams due by the step's end, and a list rebuild
+  /// when some particle has moved half the skin or was inserted.
   void drift(double dt);
+  /// Insert what the scene's streams owe by @p time; returns whether any particle was added.
+  bool insert_from_streams(double time);
   /// Second half kick and the heat step; returns whether every value stayed finite.
   bool finish_step(double dt);
   /// The per-pair state (springs, bond flags) of the pairs that have any, keyed by particle ids:
@@ -221,6 +228,8 @@ class Stepper {
   LaserScratch laser_scratch_;
   double laser_power_ = 0.0;  ///< absorbed in the last evaluation [W]
   double laser_missed_power_ = 0.0;
+  std::vector<StreamProgress> streams_;  ///< per scene stream
+  std::int64_t next_id_ = 0;             ///< id of the next inserted particle
 };
 
 template <class Visit>

@@ -181,23 +181,25 @@ void tighten(TimeStepLimit& limit, double step, const std::string& cause) {
 }  // namespace
 
 double reference_impact_speed(const Case& c) {
-  const double fastest =
+  double fastest =
       c.particles.empty() ? 0.0 : c.particles[fastest_particle(c)].velocity.stableNorm();
+  for (const StreamInsertion& s : c.streams) fastest = std::max(fastest, s.velocity.stableNorm());
   double speed = 2.0 * fastest;
   for (const Boundary& tool : c.boundaries) {
     speed = std::max(speed, 2.0 * tool_surface_speed(tool));
   }
   const double g = c.gravity.norm();
-  if (g > 0.0 && !c.particles.empty()) {
-    Eigen::Vector3d lo = c.particles.front().position;
-    Eigen::Vector3d hi = lo;
-    for (const ParticleSpec& p : c.particles) {
-      lo = lo.cwiseMin(p.position);
-      hi = hi.cwiseMax(p.position);
-    }
+  if (g > 0.0 && (c.domain || !c.particles.empty())) {
+    Eigen::Vector3d lo, hi;
     if (c.domain) {
       lo = c.domain->min;
       hi = c.domain->max;
+    } else {
+      lo = hi = c.particles.front().position;
+      for (const ParticleSpec& p : c.particles) {
+        lo = lo.cwiseMin(p.position);
+        hi = hi.cwiseMax(p.position);
+      }
     }
     const double drop = std::abs((hi - lo).dot(c.gravity / g));
     speed = std::max(speed, std::sqrt(2.0 * g * drop));
@@ -208,11 +210,13 @@ double reference_impact_speed(const Case& c) {
 TimeStepLimit case_time_step_bound(const Case& c) {
   std::vector<double> smallest(c.materials.size(), 0.0);
   double smallest_radius = std::numeric_limits<double>::infinity();
-  for (const ParticleSpec& p : c.particles) {
-    double& r = smallest[static_cast<std::size_t>(p.material)];
-    r = r == 0.0 ? p.radius : std::min(r, p.radius);
-    smallest_radius = std::min(smallest_radius, p.radius);
-  }
+  const auto note = [&](int material, double radius) {
+    double& r = smallest[static_cast<std::size_t>(material)];
+    r = r == 0.0 ? radius : std::min(r, radius);
+    smallest_radius = std::min(smallest_radius, radius);
+  };
+  for (const ParticleSpec& p : c.particles) note(p.material, p.radius);
+  for (const StreamInsertion& s : c.streams) note(s.material, bondem::smallest_radius(s.radius));
   require_physical_speeds(c);
   const double speed = reference_impact_speed(c);
   TimeStepLimit limit{std::numeric_limits<double>::infinity(), "nothing"};

@@ -3,6 +3,8 @@
 /// The validated description of a simulation case, as read from a case file (io/case_file.hpp).
 
 #include <Eigen/Core>
+#include <algorithm>
+#include <cstdint>
 #include <map>
 #include <optional>
 #include <string>
@@ -16,6 +18,7 @@
 #include "solver/models/bond_law.hpp"
 #include "solver/models/normal_laws.hpp"
 #include "solver/models/pair.hpp"
+#include "solver/setup/radius_distribution.hpp"
 
 namespace bondem {
 
@@ -98,6 +101,26 @@ struct ParticleSpec {
   double temperature = 293.15;  ///< [K]; the reader fills in the thermal initial temperature
 };
 
+/// An `insert:` entry of type `stream`: particles added during the run at a rate, each where it
+/// overlaps no particle (Stepper; solver/engine/particle_stream.hpp).
+struct StreamInsertion {
+  /// Where centres are drawn: every inserted sphere lies inside; an axis of zero extent (a face)
+  /// puts the centres on that plane.
+  Box region;
+  int material = 0;  ///< index into Case::materials
+  /// Bounded (constant, uniform, or normal and log-normal with both cut-offs), so that the
+  /// neighbor grid and the time step can allow for the largest and the smallest particle.
+  RadiusDistribution radius;
+  double particle_rate = 0.0;  ///< particles per second; or
+  double mass_rate = 0.0;      ///< kilograms per second (exactly one of the two is > 0)
+  double start_time = 0.0;     ///< [s]
+  double end_time = 0.0;       ///< [s]; insertion stops then (the reader defaults it to time.end)
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();  ///< of every inserted particle
+  double temperature = 293.15;                         ///< [K] of every inserted particle
+  std::uint64_t seed = 1;                              ///< same seed, same particles, bit for bit
+  std::size_t max_attempts = 100;  ///< random centres tried per particle and step
+};
+
 /// Everything a run needs, validated: the output of the case-file reader.
 struct Case {
   std::string source;  ///< file the case came from, for messages
@@ -109,7 +132,8 @@ struct Case {
   double time_step = 0.0;  ///< [s]
   double end_time = 0.0;   ///< [s]
   Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
-  std::vector<ParticleSpec> particles;  ///< explicit ones first, then each insertion in order
+  std::vector<ParticleSpec> particles;   ///< explicit ones first, then each insertion in order
+  std::vector<StreamInsertion> streams;  ///< insertions during the run, in case-file order
   std::optional<Domain> domain;  ///< absent: the particles' bounding box, padded, not periodic
   /// Walls, container faces, tools and meshes, in the order of the case file's `walls:` list (a
   /// box container adds its faces in place).
@@ -139,6 +163,14 @@ struct Case {
   /// Every coefficient of material pair (a, b), derived once for the run.
   PairCoefficients pair_coefficients(int a, int b) const;
 };
+
+/// Largest radius of case @p c: of its initial particles and of what its streams can insert.
+inline double largest_radius(const Case& c) {
+  double largest = 0.0;
+  for (const ParticleSpec& p : c.particles) largest = std::max(largest, p.radius);
+  for (const StreamInsertion& s : c.streams) largest = std::max(largest, largest_radius(s.radius));
+  return largest;
+}
 
 /// Verlet skin of case @p c whose largest radius is @p max_radius: neighbors.skin, or by default
 /// 0.2 of that radius.

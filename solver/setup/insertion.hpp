@@ -21,6 +21,7 @@
 #include "geometry/box.hpp"
 #include "geometry/domain.hpp"
 #include "solver/setup/case.hpp"
+#include "solver/setup/radius_distribution.hpp"
 
 namespace bondem {
 
@@ -31,31 +32,6 @@ using Rng = std::mt19937_64;
 class InsertionError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
-};
-
-/// Radius distribution of inserted particles; radii outside the cut-offs are redrawn.
-///
-/// - kConstant: `value`; no cut-offs.
-/// - kUniform: r in [`min`, `max`); the bounds are the cut-offs.
-/// - kNormal: `mean`, `std_dev` of r; cut-offs `min` and `max` (0 = none); r <= 0 is always
-///   redrawn, since a radius must be positive.
-/// - kLogNormal: ln r is normal with mean ln(`median`) and standard deviation `sigma`
-///   (dimensionless), i.e. parameters of ln r, not of r, as sieve data are reported; cut-offs
-///   `min` and `max` (0 = none).
-///
-/// Redrawing truncates the distribution, so the mean of a cut distribution differs from `mean`.
-/// Normal and log-normal draws call std::log, std::cos and std::exp: bit-identical wherever the
-/// same math library is used (e.g. glibc), but another libm may differ in the last bit.
-struct RadiusDistribution {
-  enum class Kind { kConstant, kUniform, kNormal, kLogNormal };
-  Kind kind = Kind::kConstant;
-  double value = 0.0;    ///< kConstant: the radius [m]
-  double min = 0.0;      ///< kUniform: lower bound; kNormal/kLogNormal: lower cut-off, 0 = none [m]
-  double max = 0.0;      ///< kUniform: upper bound; kNormal/kLogNormal: upper cut-off, 0 = none [m]
-  double mean = 0.0;     ///< kNormal: mean radius before cut-offs [m]
-  double std_dev = 0.0;  ///< kNormal: standard deviation of the radius before cut-offs [m]
-  double median = 0.0;   ///< kLogNormal: median radius before cut-offs, exp(mu) [m]
-  double sigma = 0.0;    ///< kLogNormal: standard deviation of ln r [-]
 };
 
 /// What the D-values of a particle-size measurement count: the number of particles (image
