@@ -463,11 +463,15 @@ int run_run(const RunCommand& o) {
   if (!o.quiet) {
     const int threads = bondem::threads_in_use(c.particles.size());
     std::cerr << "bondem run: " << (o.case_path.empty() ? "built-in packing case" : o.case_path)
-              << ", " << c.particles.size() << " particles, " << threads
-              << (threads == 1 ? " thread" : " threads");
+              << ", " << c.particles.size() << " particles";
+    if (!c.streams.empty()) {
+      std::cerr << " and " << c.streams.size() << (c.streams.size() == 1 ? " stream" : " streams");
+    }
+    std::cerr << ", " << threads << (threads == 1 ? " thread" : " threads");
     if (threads < omp_get_max_threads()) {
       std::cerr << " (below " << bondem::kMinParallelParticles
-                << " particles the loops run serially; " << omp_get_max_threads() << " available)";
+                << " particles the loops run serially; " << omp_get_max_threads() << " available"
+                << (c.streams.empty() ? "" : "; the streams add particles as it runs") << ")";
     }
     std::cerr << ", " << pair_pass_text(c) << "\n";
   }
