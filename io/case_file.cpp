@@ -13,6 +13,7 @@
 #include <sstream>
 #include <variant>
 
+#include "io/checkpoint.hpp"
 #include "io/stl_reader.hpp"
 #include "solver/analysis/packing.hpp"
 #include "solver/setup/insertion.hpp"
@@ -754,7 +755,8 @@ RadiusDistribution read_radius(const Reader& reader, const YAML::Node& node,
 }
 
 void check_inside(const Reader& reader, const Case& c, const ParticleSpec& p,
-                  const YAML::Node& node, const std::string& path) {
+                  const YAML::Node& node, const std::string& path,
+                  double allowed_overlap_fraction = 0.0) {
   if (c.domain) {
     for (int a = 0; a < 3; ++a) {
       if (p.position[a] < c.domain->min[a] || p.position[a] > c.domain->max[a]) {
@@ -763,9 +765,12 @@ void check_inside(const Reader& reader, const Case& c, const ParticleSpec& p,
     }
   }
   for (const Boundary& boundary : c.boundaries) {
-    if (overlaps(boundary, p.position, p.radius)) {
+    if (overlaps(boundary, p.position, p.radius * (1.0 - allowed_overlap_fraction))) {
       reader.fail(node, path,
-                  (is_plane(boundary) ? "overlaps wall '" : "overlaps '") + boundary.name + "'");
+                  (is_plane(boundary) ? "overlaps wall '" : "overlaps '") + boundary.name + "'" +
+                      (allowed_overlap_fraction > 0.0
+                           ? " by more than limits.max_overlap_fraction of its radius"
+                           : ""));
     }
   }
 }
@@ -831,6 +836,166 @@ void check_periodic_axes(const Reader& reader, const Case& c, const YAML::Node& 
                                      : "; enlarge the domain"));
     }
     reader.fail(root["domain"]["periodic"], "domain.periodic", what + "; enlarge the domain");
+  }
+}
+
+/// Index of the material named @p name in @p c, for a particle of an initial state; refuses a
+/// name the case does not define.
+int initial_material(const Reader& reader, const Case& c, const YAML::Node& node,
+                     const std::string& where, std::string_view name) {
+  for (std::size_t m = 0; m < c.materials.size(); ++m) {
+    if (c.materials[m].name == name) return static_cast<int>(m);
+  }
+  reader.fail(node, "initial_state.file",
+              where + ": material '" + std::string(name) +
+                  "' is not among this case's materials (define it under `materials:`)");
+}
+
+/// The particles of a final-state file (final_state.csv or last_good_state.csv) at @p path.
+std::vector<ParticleSpec> read_state_csv(const Reader& reader, const Case& c,
+                                         const YAML::Node& node, const std::string& path) {
+  std::ifstream in(path);
+  if (!in) reader.fail(node, "initial_state.file", "cannot open '" + path + "'");
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::string> header;
+  {
+    std::istringstream names(line);
+    for (std::string name; std::getline(names, name, ',');) header.push_back(name);
+  }
+  const auto column = [&](std::string_view name) {
+    const auto found = std::find(header.begin(), header.end(), name);
+    return found == header.end() ? -1 : static_cast<int>(found - header.begin());
+  };
+  std::array<int, 9> required{};
+  const char* const kRequired[9] = {"id", "x", "y", "z", "vx", "vy", "vz", "radius", "material"};
+  for (int k = 0; k < 9; ++k) {
+    required[k] = column(kRequired[k]);
+    if (required[k] < 0) {
+      reader.fail(node, "initial_state.file",
+                  path + ": no column '" + kRequired[k] +
+                      "' (a final_state.csv of this bondem version has id, x, y, z, vx, vy, "
+                      "vz, radius, material, wx, wy, wz)");
+    }
+  }
+  const std::array<int, 3> spin{column("wx"), column("wy"), column("wz")};
+  const int temperature = c.thermal ? column("temperature") : -1;
+  std::vector<ParticleSpec> particles;
+  std::vector<std::string> fields;
+  for (std::size_t line_number = 2; std::getline(in, line); ++line_number) {
+    if (line.empty()) continue;
+    const std::string where = path + ":" + std::to_string(line_number);
+    fields.clear();
+    std::istringstream row(line);
+    for (std::string field; std::getline(row, field, ',');) fields.push_back(field);
+    if (fields.size() != header.size()) {
+      reader.fail(node, "initial_state.file",
+                  where + ": " + std::to_string(fields.size()) + " values, the header has " +
+                      std::to_string(header.size()));
+    }
+    const auto number = [&](int k) {
+      double value = 0.0;
+      const std::string& text = fields[static_cast<std::size_t>(k)];
+      const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+      if (error != std::errc() || end != text.data() + text.size() || !std::isfinite(value)) {
+        reader.fail(node, "initial_state.file",
+                    where + ": '" + header[static_cast<std::size_t>(k)] + "' is '" + text +
+                        "', not a finite number");
+      }
+      return value;
+    };
+    ParticleSpec p;
+    const double id = number(required[0]);
+    if (id < 0.0 || id != std::floor(id) || id > 9.0e15) {
+      reader.fail(node, "initial_state.file", where + ": id must be a whole number >= 0");
+    }
+    p.id = static_cast<std::int64_t>(id);
+    for (int a = 0; a < 3; ++a) {
+      p.position[a] = number(required[1 + a]);
+      p.velocity[a] = number(required[4 + a]);
+      if (spin[a] >= 0) p.angular_velocity[a] = number(spin[a]);
+    }
+    p.radius = number(required[7]);
+    if (!(p.radius > 0.0)) reader.fail(node, "initial_state.file", where + ": radius must be > 0");
+    p.material =
+        initial_material(reader, c, node, where, fields[static_cast<std::size_t>(required[8])]);
+    p.temperature = temperature >= 0 ? number(temperature)
+                    : c.thermal      ? c.thermal->initial_temperature
+                                     : ParticleSpec{}.temperature;
+    particles.push_back(p);
+  }
+  return particles;
+}
+
+/// The particles of a checkpoint at @p path, and its pairs' springs and bonds into @p c.
+std::vector<ParticleSpec> read_state_checkpoint(const Reader& reader, Case& c,
+                                                const YAML::Node& node, const std::string& path) {
+  Checkpoint state;
+  try {
+    state = read_checkpoint(path);
+  } catch (const CheckpointError& e) {
+    reader.fail(node, "initial_state.file", e.what());
+  }
+  const Particles& p = state.particles;
+  std::vector<int> material(state.material_names.size());
+  for (std::size_t m = 0; m < material.size(); ++m) {
+    material[m] = initial_material(reader, c, node, path, state.material_names[m]);
+  }
+  std::vector<ParticleSpec> particles(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    ParticleSpec& s = particles[i];
+    const auto m = static_cast<std::size_t>(p.material[i]);
+    if (m >= material.size()) {
+      reader.fail(node, "initial_state.file", path + ": a particle's material has no name");
+    }
+    s.material = material[m];
+    s.id = p.id[i];
+    s.radius = p.radius[i];
+    s.position = {p.x[i], p.y[i], p.z[i]};
+    s.velocity = {p.vx[i], p.vy[i], p.vz[i]};
+    s.angular_velocity = {p.wx[i], p.wy[i], p.wz[i]};
+    s.temperature = c.thermal ? (p.thermal() ? p.temperature[i] : c.thermal->initial_temperature)
+                              : ParticleSpec{}.temperature;
+  }
+  c.initial_pairs = std::move(state.stepper.slips);
+  return particles;
+}
+
+/// `initial_state: {file: PATH}`: the particles of another run's final_state.csv or checkpoint,
+/// appended to @p c's particles, periodic coordinates wrapped into the domain.
+void read_initial_state(const Reader& reader, const YAML::Node& root, Case& c,
+                        std::vector<ParticleEntry>& entries) {
+  const YAML::Node state = root["initial_state"];
+  if (!state) return;
+  reader.expect_map(state, "initial_state");
+  reader.check_keys(state, "initial_state", {"file"});
+  const YAML::Node file = reader.require(state, "initial_state", "file");
+  const std::string path = reader.text(file, "initial_state.file");
+  const bool csv = path.size() >= 4 && path.compare(path.size() - 4, 4, ".csv") == 0;
+  std::vector<ParticleSpec> particles =
+      csv ? read_state_csv(reader, c, file, path) : read_state_checkpoint(reader, c, file, path);
+  if (particles.empty()) reader.fail(file, "initial_state.file", path + " holds no particle");
+  std::vector<std::int64_t> ids;
+  for (ParticleSpec& p : particles) {
+    ids.push_back(p.id);
+    if (!c.domain) continue;
+    for (int a = 0; a < 3; ++a) {
+      if (c.domain->periodic[a]) {
+        p.position[a] =
+            wrap_periodic(p.position[a], c.domain->min[a], c.domain->max[a] - c.domain->min[a]);
+      }
+    }
+  }
+  std::sort(ids.begin(), ids.end());
+  if (const auto twice = std::adjacent_find(ids.begin(), ids.end()); twice != ids.end()) {
+    reader.fail(file, "initial_state.file", path + ": id " + std::to_string(*twice) + " twice");
+  }
+  entries.push_back({c.particles.size(), "initial_state", state});
+  for (const ParticleSpec& p : particles) {
+    // A particle resting on a wall overlaps it a little, as it does its neighbors.
+    check_inside(reader, c, p, state, "initial_state (id " + std::to_string(p.id) + ")",
+                 c.max_overlap_fraction);
+    c.particles.push_back(p);
   }
 }
 
@@ -1535,8 +1700,8 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
   reader.expect_map(root, "");
   reader.check_keys(root, "",
                     {"description", "materials", "contact", "bond", "interactions", "time",
-                     "gravity", "particles", "insert", "domain", "walls", "neighbors", "output",
-                     "analysis", "thermal", "laser", "limits"});
+                     "gravity", "particles", "initial_state", "insert", "domain", "walls",
+                     "neighbors", "output", "analysis", "thermal", "laser", "limits"});
 
   read_materials(reader, root, c);
   read_contact(reader, root, c);
@@ -1566,6 +1731,7 @@ Case read_case(const YAML::Node& root, const Reader& reader) {
   for (std::size_t k = 0; k < explicit_count; ++k) {
     check_inside(reader, c, c.particles[k], particles[k], Reader::join("particles", k));
   }
+  read_initial_state(reader, root, c, entries);
   if (const YAML::Node insert = root["insert"]) read_insertions(reader, c, insert, entries);
   if (c.particles.empty() && c.streams.empty()) {
     reader.fail(root, "particles", "the case has no particles (and no stream inserts any)");

@@ -241,12 +241,16 @@ class ParticleLines {
     for (int a = 0; a < 3; ++a) line(kPosition[a], p.position[a]);
     for (int a = 0; a < 3; ++a) line(kVelocity[a], p.velocity[a]);
     line(".temperature", p.temperature);
+    for (int a = 0; a < 3; ++a) line(kSpin[a], p.angular_velocity[a]);
+    line(".id", p.id);
     return {text_.data(), static_cast<std::size_t>(end_ - text_.data())};
   }
 
  private:
   static constexpr const char* kPosition[3] = {".position.0", ".position.1", ".position.2"};
   static constexpr const char* kVelocity[3] = {".velocity.0", ".velocity.1", ".velocity.2"};
+  static constexpr const char* kSpin[3] = {".angular_velocity.0", ".angular_velocity.1",
+                                           ".angular_velocity.2"};
   void put(std::string_view piece) { end_ = std::copy(piece.begin(), piece.end(), end_); }
   /// A line after the first: the key's prefix again, then @p field, '=', @p value and '\n'.
   template <class T>
@@ -261,16 +265,26 @@ class ParticleLines {
     end_ = std::to_chars(end_, text_.data() + text_.size(), value).ptr;
     *end_++ = '\n';
   }
-  /// 11 lines of at most 15 + 20 + 12 + 1 + 24 + 1 characters.
-  std::array<char, 1024> text_{};
+  /// 15 lines of at most 15 + 20 + 20 + 1 + 24 + 1 characters.
+  std::array<char, 2048> text_{};
   char* end_ = text_.data();
   char* prefix_end_ = nullptr;
 };
 
-/// Every particle, exactly.
+/// Every particle, exactly, and the pair state an initial state brings.
 void write_canonical_particles(const Case& c, CanonicalText& t) {
   ParticleLines lines;
   for (std::size_t k = 0; k < c.particles.size(); ++k) t.add_lines(lines.of(k, c.particles[k]));
+  for (std::size_t k = 0; k < c.initial_pairs.size(); ++k) {
+    const SlipRecord& s = c.initial_pairs[k];
+    const std::string key = "case.initial_pairs." + std::to_string(k);
+    t.add(key + ".ids",
+          std::string_view(std::to_string(s.first_id) + " " + std::to_string(s.second_id)));
+    t.add(key + ".spring", Eigen::Vector3d(s.sx, s.sy, s.sz));
+    t.add(key + ".rolling_spring", Eigen::Vector3d(s.rx, s.ry, s.rz));
+    t.add(key + ".flags",
+          std::string_view(std::to_string(s.bonded) + " " + std::to_string(s.joined)));
+  }
 }
 
 /// The domain and the boundaries with their shapes and motions.
@@ -441,6 +455,8 @@ void put_payload(Writer& payload, const CheckpointView& checkpoint, std::uint64_
   payload.put(static_cast<std::uint8_t>(p.mesh_contacts ? 1 : 0));
   if (p.mesh_contacts) put_section(CheckpointSection::kMeshHistory);
   payload.put(checkpoint.history);
+  payload.put(static_cast<std::uint64_t>(checkpoint.material_names.size()));
+  for (const std::string& name : checkpoint.material_names) payload.put(name);
 }
 
 }  // namespace
@@ -451,6 +467,7 @@ CheckpointView checkpoint_view(const Checkpoint& checkpoint) {
           checkpoint.particles,
           s,
           checkpoint.history,
+          checkpoint.material_names,
           {&s.list.x0, &s.list.y0, &s.list.z0},
           [&s](const std::function<void(const SlipRecord&)>& visit) {
             for (const SlipRecord& slip : s.slips) visit(slip);
@@ -459,12 +476,14 @@ CheckpointView checkpoint_view(const Checkpoint& checkpoint) {
 
 CheckpointView checkpoint_view(std::uint64_t case_fingerprint, const Particles& particles,
                                const Stepper& stepper, const StepperState& state,
-                               const std::string& history) {
+                               const std::string& history,
+                               const std::vector<std::string>& material_names) {
   const NeighborList& list = stepper.neighbors();
   return {case_fingerprint,
           particles,
           state,
           history,
+          material_names,
           {&list.build_positions(0), &list.build_positions(1), &list.build_positions(2)},
           [&stepper](const std::function<void(const SlipRecord&)>& visit) {
             stepper.for_each_slip(visit);
@@ -633,6 +652,9 @@ Checkpoint read_checkpoint(const std::string& path) {
   p.mesh_contacts = r.get<std::uint8_t>() != 0;
   if (p.mesh_contacts) get_section(CheckpointSection::kMeshHistory);
   c.history = r.get_text();
+  const auto names = r.get<std::uint64_t>();
+  r.check_room(names, sizeof(std::uint64_t));
+  for (std::uint64_t k = 0; k < names; ++k) c.material_names.push_back(r.get_text());
   if (!r.at_end()) r.fail("trailing bytes");
   // A field the table does not checkpoint restarts from zero, sized like the others, so that it
   // is never an empty array the stepper writes past.

@@ -109,6 +109,9 @@ struct Checkpoint {
   Particles particles;                 ///< current order, forces included
   StepperState stepper;                ///< time, step, neighbor-list build positions
   std::string history;                 ///< history.csv rows written so far
+  /// Names of the materials, by the index the particles hold: how a case that starts from the
+  /// checkpoint (initial_state) finds them among its own.
+  std::vector<std::string> material_names;
 };
 
 /// The canonical text of @p description that its fingerprint hashes, one `key=value` a line:
@@ -136,6 +139,7 @@ struct CheckpointView {
   /// Time, counts and boundaries; its list positions and slips are not read: see below.
   const StepperState& stepper;
   const std::string& history;
+  const std::vector<std::string>& material_names;  ///< by material index
   /// The neighbor list's build positions, x, y and z.
   std::array<const StaggeredVector<double>*, 3> build_positions;
   /// The pairs' carried state (a write visits it three times).
@@ -150,7 +154,8 @@ CheckpointView checkpoint_view(const Checkpoint& checkpoint);
 /// streamed from @p stepper itself.
 CheckpointView checkpoint_view(std::uint64_t case_fingerprint, const Particles& particles,
                                const Stepper& stepper, const StepperState& state,
-                               const std::string& history);
+                               const std::string& history,
+                               const std::vector<std::string>& material_names);
 
 /// Write @p checkpoint as write_checkpoint(path, Checkpoint) would, streamed: the payload is
 /// serialized twice (counted, then written and hashed) and never held in memory, so a checkpoint

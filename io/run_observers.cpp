@@ -21,14 +21,15 @@ namespace {
 
 /// Characters of a 64-bit integer at most: -9223372036854775808.
 constexpr std::size_t kIntegerChars = 21;
-/// Characters of a final-state row at most: id, nine values and a bond count, with separators.
-constexpr std::size_t kFinalRowChars = 2 * kIntegerChars + 9 * kExactTextChars + 11;
+/// Characters of a final-state row at most, besides the material's name: id, twelve values and a
+/// bond count, with separators.
+constexpr std::size_t kFinalRowChars = 2 * kIntegerChars + 12 * kExactTextChars + 15;
 
 /// The final-state rows of particles order[first, last) at @p out, which has room for
-/// kFinalRowChars per row; returns the end.
-char* write_final_rows(const Particles& p, const std::vector<std::uint32_t>& order,
-                       std::size_t first, std::size_t last, const std::vector<int>& bonds,
-                       bool thermal, char* out) {
+/// kFinalRowChars plus the longest of @p names per row; returns the end.
+char* write_final_rows(const Particles& p, const std::vector<std::string>& names,
+                       const std::vector<std::uint32_t>& order, std::size_t first, std::size_t last,
+                       const std::vector<int>& bonds, bool thermal, char* out) {
   const auto put = [&out](double value) {
     *out++ = ',';
     out = write_exact_text(out, value);
@@ -45,6 +46,10 @@ char* write_final_rows(const Particles& p, const std::vector<std::uint32_t>& ord
       *out++ = ',';
       out = std::to_chars(out, out + kIntegerChars, bonds[i]).ptr;
     }
+    const std::string& name = names[static_cast<std::size_t>(p.material[i])];
+    *out++ = ',';
+    out = std::copy(name.begin(), name.end(), out);
+    for (const double value : {p.wx[i], p.wy[i], p.wz[i]}) put(value);
     *out++ = '\n';
   }
   return out;
@@ -52,7 +57,8 @@ char* write_final_rows(const Particles& p, const std::vector<std::uint32_t>& ord
 
 }  // namespace
 
-void write_final_state(const Particles& p, const std::string& path, const std::vector<int>& bonds) {
+void write_final_state(const Particles& p, const std::vector<std::string>& material_names,
+                       const std::string& path, const std::vector<int>& bonds) {
   // Indices fit 32 bits (the neighbor list stores them so): half the memory of size_t.
   std::vector<std::uint32_t> order(p.size());
   std::iota(order.begin(), order.end(), std::uint32_t{0});
@@ -61,14 +67,18 @@ void write_final_state(const Particles& p, const std::string& path, const std::v
   AtomicFile file(path);
   std::ostream& out = file.stream();
   const bool thermal = p.thermal() && bonds.size() == p.size();
+  // New columns go last, so that a reader by column position keeps working.
   out << "id,x,y,z,vx,vy,vz,radius" << (thermal ? ",temperature,peak_temperature,bonds" : "")
-      << '\n';
+      << ",material,wx,wy,wz\n";
+  std::size_t longest_name = 0;
+  for (const std::string& name : material_names) longest_name = std::max(longest_name, name.size());
+  const std::size_t row_chars = kFinalRowChars + longest_name;
   // Formatting 17 digits is most of the time (10^6 rows, 7 million values): blocks of rows are
   // formatted on every thread, then written in order. The bytes do not depend on the threads.
   constexpr std::size_t kBlockRows = 16384;
   const std::size_t rows = order.size();
   const auto threads = static_cast<std::size_t>(threads_in_use(rows));
-  std::vector<std::vector<char>> text(threads, std::vector<char>(kBlockRows * kFinalRowChars));
+  std::vector<std::vector<char>> text(threads, std::vector<char>(kBlockRows * row_chars));
   std::vector<std::size_t> length(threads, 0);
   for (std::size_t first = 0; first < rows; first += threads * kBlockRows) {
 #pragma omp parallel for schedule(static) num_threads(static_cast <int>(threads)) if (threads > 1)
@@ -77,7 +87,7 @@ void write_final_state(const Particles& p, const std::string& path, const std::v
       const std::size_t end = std::min(rows, begin + kBlockRows);
       char* const start = text[t].data();
       length[t] = static_cast<std::size_t>(
-          write_final_rows(p, order, begin, end, bonds, thermal, start) - start);
+          write_final_rows(p, material_names, order, begin, end, bonds, thermal, start) - start);
     }
     for (std::size_t t = 0; t < threads; ++t) {
       out.write(text[t].data(), static_cast<std::streamsize>(length[t]));
@@ -161,8 +171,10 @@ void LastGoodFile::after_step(const Simulation& simulation) {
   if (history_.last_row_step() == simulation.step()) keep(simulation.scene().particles);
 }
 
-void LastGoodFile::interrupted(const Simulation& /*simulation*/, const Interruption& why) {
-  if (why.reason == StopReason::kBlowUp) write_final_state(kept(), path_);
+void LastGoodFile::interrupted(const Simulation& simulation, const Interruption& why) {
+  if (why.reason == StopReason::kBlowUp) {
+    write_final_state(kept(), simulation.scene().material_names, path_);
+  }
 }
 
 VtkFrames::VtkFrames(const std::filesystem::path& directory, std::int64_t every)
@@ -243,8 +255,9 @@ void CheckpointFile::write(const Simulation& simulation) const {
   // to the file, not copied.
   const Stepper& stepper = simulation.stepper();
   const StepperState state = stepper.save_state(SavedArrays::kOmitted);
-  write_checkpoint(path_, checkpoint_view(fingerprint_, simulation.scene().particles, stepper,
-                                          state, history_.text()));
+  write_checkpoint(path_,
+                   checkpoint_view(fingerprint_, simulation.scene().particles, stepper, state,
+                                   history_.text(), simulation.scene().material_names));
 }
 
 namespace {
@@ -313,7 +326,8 @@ EndOfRunFiles::EndOfRunFiles(std::filesystem::path directory, const RunAnalysis&
 void EndOfRunFiles::interrupted(const Simulation& simulation, const Interruption& why) {
   if (why.reason != StopReason::kStopRequested) return;
   const Particles& p = simulation.scene().particles;
-  write_final_state(p, (directory_ / "final_state.csv").string(), final_state_bonds(simulation));
+  write_final_state(p, simulation.scene().material_names, (directory_ / "final_state.csv").string(),
+                    final_state_bonds(simulation));
 }
 
 void EndOfRunFiles::finish(const Simulation& simulation) {
@@ -322,7 +336,8 @@ void EndOfRunFiles::finish(const Simulation& simulation) {
   OutputSet end_of_run(
       {directory_ / "final_state.csv", directory_ / "clusters.csv", directory_ / "layer.csv"});
   const Particles& p = simulation.scene().particles;
-  write_final_state(p, (directory_ / "final_state.csv").string(), final_state_bonds(simulation));
+  write_final_state(p, simulation.scene().material_names, (directory_ / "final_state.csv").string(),
+                    final_state_bonds(simulation));
   write_clusters(figures.clusters, (directory_ / "clusters.csv").string());
   if (figures.layer) write_layer(*figures.layer, (directory_ / "layer.csv").string());
   end_of_run.keep();

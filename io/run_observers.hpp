@@ -19,9 +19,11 @@ namespace bondem {
 
 /// One row per particle sorted by id (id, x, y, z, vx, vy, vz, radius, 17 significant digits),
 /// written atomically to @p path; with @p bonds (one count per particle) a thermal set adds
-/// temperature, peak_temperature and bonds.
-void write_final_state(const Particles& p, const std::string& path,
-                       const std::vector<int>& bonds = {});
+/// temperature, peak_temperature and bonds; then the material by its name in
+/// @p material_names and the angular velocity wx, wy, wz: a complete state that a case can start
+/// from (`initial_state:`).
+void write_final_state(const Particles& p, const std::vector<std::string>& material_names,
+                       const std::string& path, const std::vector<int>& bonds = {});
 
 /// history.csv, live: truncated when opened, then appended and flushed piece by piece, so that a
 /// run can be watched (and plotted) while it runs. Feed it as History's sink.

@@ -27,12 +27,15 @@ std::vector<Row> read_final_state(const std::filesystem::path& path) {
   std::ifstream in(path);
   std::string line;
   std::getline(in, line);
-  EXPECT_EQ(line, "id,x,y,z,vx,vy,vz,radius,temperature,peak_temperature,bonds");
+  EXPECT_EQ(line, "id,x,y,z,vx,vy,vz,radius,temperature,peak_temperature,bonds,material,wx,wy,wz");
   std::vector<Row> rows;
   while (std::getline(in, line)) {
     std::vector<double> v;
     std::stringstream fields(line);
-    for (std::string field; std::getline(fields, field, ',');) v.push_back(std::stod(field));
+    // The numbers up to bonds; the material's name and the spin follow.
+    for (std::string field; v.size() < 11 && std::getline(fields, field, ',');) {
+      v.push_back(std::stod(field));
+    }
     rows.push_back({v[1], v[2], v[3], v[7], v[8], v[9], static_cast<int>(v[10])});
   }
   return rows;

@@ -356,12 +356,14 @@ DrumRun drum_run(const std::string& name, const std::vector<std::string>& overri
 
   std::ifstream in(directory / "final_state.csv");
   std::string line;
-  std::getline(in, line);  // id,x,y,z,vx,vy,vz,radius
+  std::getline(in, line);  // id,x,y,z,vx,vy,vz,radius,material,wx,wy,wz
   std::vector<double> x, y, z, radius;
   while (std::getline(in, line)) {
     std::vector<double> v;
     std::stringstream fields(line);
-    for (std::string field; std::getline(fields, field, ',');) v.push_back(std::stod(field));
+    for (std::string field; v.size() < 8 && std::getline(fields, field, ',');) {
+      v.push_back(std::stod(field));
+    }
     x.push_back(v[1]);
     y.push_back(v[2]);
     z.push_back(v[3]);

@@ -127,13 +127,14 @@ TEST(ParticleFields, PermuteMovesEveryReorderedFieldWithItsParticle) {
 
 TEST(ParticleFields, LastGoodMarksExactlyWhatAFinalStateHolds) {
   // LastGoodFile keeps the kLastGood fields and writes them as a final-state file: ids,
-  // positions, velocities, radii, and nothing else (64 B a particle on disk).
+  // materials, positions, velocities, radii and spins, and nothing else (92 B a particle on
+  // disk), so that a run can start from it (initial_state).
   std::vector<std::string_view> marked;
   for (const ParticleField& field : kParticleFields) {
     if (has(field, kLastGood)) marked.push_back(field.name);
   }
-  EXPECT_EQ(marked,
-            (std::vector<std::string_view>{"id", "x", "y", "z", "vx", "vy", "vz", "radius"}));
+  EXPECT_EQ(marked, (std::vector<std::string_view>{"id", "material", "x", "y", "z", "vx", "vy",
+                                                   "vz", "radius", "wx", "wy", "wz"}));
 }
 
 TEST(ParticleFields, CheckpointKeepsEveryCheckpointedFieldExactly) {

@@ -219,7 +219,11 @@ TEST(StreamRun, SameBytesForAnyThreadCountAndAcrossARestart) {
   std::size_t count = 0;
   double mass = 0.0;
   while (std::getline(rows, line)) {
-    const double r = std::stod(line.substr(line.rfind(',') + 1));
+    std::vector<std::string> fields;
+    std::istringstream row(line);
+    for (std::string field; std::getline(row, field, ',');) fields.push_back(field);
+    const double r = std::stod(fields.at(7));  // id, x, y, z, vx, vy, vz, radius, ...
+    EXPECT_EQ(fields.at(8), "powder");
     mass += sphere_mass(r, 2500.0);
     ++count;
   }

@@ -158,7 +158,7 @@ struct ParticleField {
 /// (per-particle, per-wall, thermal: see io/checkpoint.cpp); keep new rows at the end of theirs.
 inline constexpr ParticleField kParticleFields[] = {
     {"id", &Particles::id, kReordered | kCheckpointed | kLastGood, "id", -1, 1},
-    {"material", &Particles::material, kReordered | kCheckpointed, "material", -1, 5},
+    {"material", &Particles::material, kReordered | kCheckpointed | kLastGood, "material", -1, 5},
     {"x", &Particles::x, kReordered | kCheckpointed | kLastGood},
     {"y", &Particles::y, kReordered | kCheckpointed | kLastGood},
     {"z", &Particles::z, kReordered | kCheckpointed | kLastGood},
@@ -170,9 +170,9 @@ inline constexpr ParticleField kParticleFields[] = {
     {"fz", &Particles::fz, kReordered | kCheckpointed, "force", 2, 4},
     {"radius", &Particles::radius, kReordered | kCheckpointed | kLastGood, "radius", -1, 2},
     {"mass", &Particles::mass, kReordered | kCheckpointed},
-    {"wx", &Particles::wx, kReordered | kCheckpointed, "angular_velocity", 0, 21},
-    {"wy", &Particles::wy, kReordered | kCheckpointed, "angular_velocity", 1, 21},
-    {"wz", &Particles::wz, kReordered | kCheckpointed, "angular_velocity", 2, 21},
+    {"wx", &Particles::wx, kReordered | kCheckpointed | kLastGood, "angular_velocity", 0, 21},
+    {"wy", &Particles::wy, kReordered | kCheckpointed | kLastGood, "angular_velocity", 1, 21},
+    {"wz", &Particles::wz, kReordered | kCheckpointed | kLastGood, "angular_velocity", 2, 21},
     {"tx", &Particles::tx, kReordered | kCheckpointed, "torque", 0, 22},
     {"ty", &Particles::ty, kReordered | kCheckpointed, "torque", 1, 22},
     {"tz", &Particles::tz, kReordered | kCheckpointed, "torque", 2, 22},

@@ -75,6 +75,7 @@ double cohesion_range(const std::vector<PairCoefficients>& table, double max_rad
 Scene build_scene(const Case& description) {
   Scene scene;
   scene.material_count = static_cast<int>(description.materials.size());
+  for (const Material& m : description.materials) scene.material_names.push_back(m.name);
   for (int a = 0; a < scene.material_count; ++a) {
     for (int b = 0; b < scene.material_count; ++b) {
       scene.pair_table.push_back(description.pair_coefficients(a, b));
@@ -129,12 +130,20 @@ Scene build_scene(const Case& description) {
   }
   scene.particles.set_wall_count(slots);
   scene.particles.reserve(description.particles.size());
+  // Particles of an initial state keep their ids; the others take the next free ones.
   std::int64_t next_id = 0;
+  for (const ParticleSpec& spec : description.particles) next_id = std::max(next_id, spec.id + 1);
+  Particles& added = scene.particles;
   for (const ParticleSpec& spec : description.particles) {
     const double density = description.materials[static_cast<std::size_t>(spec.material)].density;
-    scene.particles.add(next_id++, spec.material, spec.radius, sphere_mass(spec.radius, density),
-                        spec.position.data(), spec.velocity.data());
+    const std::size_t i =
+        added.add(spec.id >= 0 ? spec.id : next_id++, spec.material, spec.radius,
+                  sphere_mass(spec.radius, density), spec.position.data(), spec.velocity.data());
+    added.wx[i] = spec.angular_velocity.x();
+    added.wy[i] = spec.angular_velocity.y();
+    added.wz[i] = spec.angular_velocity.z();
   }
+  scene.initial_pairs = description.initial_pairs;
   for (const StreamInsertion& stream : description.streams) {
     const Material& m = description.materials[static_cast<std::size_t>(stream.material)];
     scene.streams.push_back({stream, m.density, m.specific_heat});

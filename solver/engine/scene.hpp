@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "geometry/boundary.hpp"
@@ -21,6 +22,7 @@ namespace bondem {
 struct Scene {
   Particles particles;
   int material_count = 0;
+  std::vector<std::string> material_names;   ///< by material index, for the outputs
   std::vector<PairCoefficients> pair_table;  ///< material_count^2 entries, row-major
   NormalLawSpec normal_law;                  ///< the normal-force law and its run-wide parameters
   Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
@@ -46,6 +48,9 @@ struct Scene {
   std::vector<ParticleStream> streams;
   /// Largest radius of any particle the run holds or its streams can insert [m].
   double largest_radius = 0.0;
+  /// Pair state (springs, bonds) by particle ids that the stepper starts from
+  /// (Case::initial_pairs); it takes them over and empties this.
+  std::vector<SlipRecord> initial_pairs;
 
   /// Whether any material pair has rolling resistance (then pairs store a rolling torque).
   bool rolling() const {

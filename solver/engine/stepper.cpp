@@ -28,7 +28,9 @@ Stepper::Stepper(Scene& scene, PairFlag pair_flag)
   }
   if (simd_pass_applies(scene_)) lane_constants_ = lane_pair_constants(scene_);
   list_.build(scene_.particles, scene_.domain, list_reach(), scene_.reorder_interval > 0);
-  carry_pairs({});
+  // An initial state's pairs keep their springs and bonds; a fresh scene has none.
+  carry_pairs(carried_from(scene_.initial_pairs));
+  scene_.initial_pairs = std::vector<SlipRecord>{};
   build_mesh_candidates(scene_, mesh_candidates_);
   compute_forces(std::numeric_limits<double>::quiet_NaN());
   bonds_formed_ = static_cast<std::int64_t>(contacts_.bonds_formed);

@@ -15,6 +15,7 @@
 #include "solver/engine/neighbor_list.hpp"
 #include "solver/engine/pair_kernel_simd.hpp"
 #include "solver/engine/scene.hpp"
+#include "solver/engine/slip_record.hpp"
 
 namespace bondem {
 
@@ -36,17 +37,6 @@ class BlowUpError : public std::runtime_error {
 
  private:
   BlowUpCause cause_;
-};
-
-/// What a pair carries from step to step, keyed by ids: its tangential spring and EPSD rolling
-/// spring (both seen from the first particle), whether it was bonded and whether a JKR contact
-/// holds it.
-struct SlipRecord {
-  std::int64_t first_id, second_id;
-  double sx, sy, sz;
-  double rx = 0.0, ry = 0.0, rz = 0.0;
-  std::uint8_t bonded = 0;
-  std::uint8_t joined = 0;
 };
 
 /// The load the particles put on one boundary.

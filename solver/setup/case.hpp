@@ -15,6 +15,7 @@
 #include "geometry/domain.hpp"
 #include "solver/analysis/layer_metrics.hpp"
 #include "solver/engine/laser.hpp"
+#include "solver/engine/slip_record.hpp"
 #include "solver/models/bond_law.hpp"
 #include "solver/models/normal_laws.hpp"
 #include "solver/models/pair.hpp"
@@ -99,6 +100,9 @@ struct ParticleSpec {
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
   double temperature = 293.15;  ///< [K]; the reader fills in the thermal initial temperature
+  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();  ///< [rad/s]
+  /// Stable id; -1: the next free one (build_scene). Particles of an initial state keep theirs.
+  std::int64_t id = -1;
 };
 
 /// An `insert:` entry of type `stream`: particles added during the run at a rate, each where it
@@ -134,6 +138,8 @@ struct Case {
   Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
   std::vector<ParticleSpec> particles;   ///< explicit ones first, then each insertion in order
   std::vector<StreamInsertion> streams;  ///< insertions during the run, in case-file order
+  /// The pair state (springs, bonds) of an initial state taken from a checkpoint, by particle ids.
+  std::vector<SlipRecord> initial_pairs;
   std::optional<Domain> domain;  ///< absent: the particles' bounding box, padded, not periodic
   /// Walls, container faces, tools and meshes, in the order of the case file's `walls:` list (a
   /// box container adds its faces in place).
