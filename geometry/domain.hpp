@@ -14,6 +14,17 @@ struct Domain {
   Eigen::Vector3d min = Eigen::Vector3d::Zero();
   Eigen::Vector3d max = Eigen::Vector3d::Zero();
   std::array<bool, 3> periodic{false, false, false};
+  /// Remove a particle whose centre has left the box across a face of a non-periodic axis (at
+  /// the next neighbor-list build): powder falling off a build plate, out of a hopper.
+  bool remove_outside = false;
+
+  /// Whether @p x lies outside the box on a non-periodic axis.
+  bool outside(const Eigen::Vector3d& x) const {
+    for (int a = 0; a < 3; ++a) {
+      if (!periodic[a] && (x[a] < min[a] || x[a] > max[a])) return true;
+    }
+    return false;
+  }
 
   /// Edge lengths.
   Eigen::Vector3d length() const { return max - min; }

@@ -389,7 +389,7 @@ Box read_box(const Reader& reader, const YAML::Node& node, const std::string& pa
 
 Domain read_domain(const Reader& reader, const YAML::Node& node, const std::string& path) {
   reader.expect_map(node, path);
-  reader.check_keys(node, path, {"min", "max", "periodic"});
+  reader.check_keys(node, path, {"min", "max", "periodic", "remove_outside"});
   Domain d;
   d.min = reader.vector3(reader.require(node, path, "min"), path + ".min");
   const YAML::Node max = reader.require(node, path, "max");
@@ -404,6 +404,9 @@ Domain read_domain(const Reader& reader, const YAML::Node& node, const std::stri
     for (std::size_t a = 0; a < 3; ++a) {
       d.periodic[a] = reader.boolean(periodic[a], Reader::join(path + ".periodic", a));
     }
+  }
+  if (const YAML::Node remove = node["remove_outside"]) {
+    d.remove_outside = reader.boolean(remove, path + ".remove_outside");
   }
   return d;
 }

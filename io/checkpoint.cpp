@@ -441,10 +441,12 @@ void put_payload(Writer& payload, const CheckpointView& checkpoint, std::uint64_
   payload.put(s.laser_missed);
   payload.put(s.next_particle_id);
   payload.put(static_cast<std::uint64_t>(s.streams.size()));
-  for (const StreamProgress& stream : s.streams) {
-    payload.put(stream.inserted);
+  for (const ParticleTally& stream : s.streams) {
+    payload.put(stream.count);
     payload.put(stream.mass);
   }
+  payload.put(s.removed.count);
+  payload.put(s.removed.mass);
   // Thermal arrays, one value per particle, only in thermal runs.
   payload.put(static_cast<std::uint8_t>(p.thermal() ? 1 : 0));
   if (p.thermal()) put_section(CheckpointSection::kThermal);
@@ -639,10 +641,12 @@ Checkpoint read_checkpoint(const std::string& path) {
   const auto streams = r.get<std::uint64_t>();
   r.check_room(streams, sizeof(std::int64_t) + sizeof(double));
   s.streams.resize(streams);
-  for (StreamProgress& stream : s.streams) {
-    stream.inserted = r.get<std::int64_t>();
+  for (ParticleTally& stream : s.streams) {
+    stream.count = r.get<std::int64_t>();
     stream.mass = r.get<double>();
   }
+  s.removed.count = r.get<std::int64_t>();
+  s.removed.mass = r.get<double>();
   p.temperatures_tracked = r.get<std::uint8_t>() != 0;
   if (p.temperatures_tracked) get_section(CheckpointSection::kThermal);
   p.contact_history = r.get<std::uint8_t>() != 0;

@@ -57,14 +57,16 @@ std::string checkpoint_misfit(const Checkpoint& restored, const Scene& scene,
   }
   // The case's own particles, and what its streams inserted up to the checkpoint.
   std::size_t inserted = 0;
-  for (const StreamProgress& stream : restored.stepper.streams) {
-    if (stream.inserted < 0) return "a negative inserted count";
-    inserted += static_cast<std::size_t>(stream.inserted);
+  for (const ParticleTally& stream : restored.stepper.streams) {
+    if (stream.count < 0) return "a negative inserted count";
+    inserted += static_cast<std::size_t>(stream.count);
   }
-  if (p.size() != expected.size() + inserted) {
+  const std::int64_t removed = restored.stepper.removed.count;
+  if (removed < 0 || static_cast<std::size_t>(removed) > expected.size() + inserted ||
+      p.size() != expected.size() + inserted - static_cast<std::size_t>(removed)) {
     return std::to_string(p.size()) + " particles, the case has " +
-           std::to_string(expected.size()) + " and its streams inserted " +
-           std::to_string(inserted);
+           std::to_string(expected.size()) + ", its streams inserted " + std::to_string(inserted) +
+           " and " + std::to_string(removed) + " were removed";
   }
   if (p.walls != expected.walls) {
     return std::to_string(p.walls) + " boundary contact slots, the case has " +

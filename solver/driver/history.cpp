@@ -34,14 +34,18 @@ std::vector<HistoryColumn> history_columns(const Scene& scene, const Stepper& st
     columns.push_back({"particles", "", [&, count] { return count(scene.particles.size()); }});
     columns.push_back({"inserted", "", [&, count] {
                          std::int64_t inserted = 0;
-                         for (const StreamProgress& s : stepper.streams()) inserted += s.inserted;
+                         for (const ParticleTally& s : stepper.streams()) inserted += s.count;
                          return count(inserted);
                        }});
     columns.push_back({"inserted_mass", "kg", [&] {
                          double mass = 0.0;
-                         for (const StreamProgress& s : stepper.streams()) mass += s.mass;
+                         for (const ParticleTally& s : stepper.streams()) mass += s.mass;
                          return mass;
                        }});
+  }
+  if (scene.domain.remove_outside) {
+    columns.push_back({"removed", "", [&, count] { return count(stepper.removed().count); }});
+    columns.push_back({"removed_mass", "kg", [&] { return stepper.removed().mass; }});
   }
   if (scene.particles.thermal()) {
     // A stream's run may start with no particle: the surroundings' temperature stands in.

@@ -187,7 +187,7 @@ double stream_radius(const ParticleStream& stream, std::size_t stream_index, std
 std::size_t insert_due_particles(const ParticleStream& stream, std::size_t stream_index,
                                  double time, std::int64_t step, const Domain& domain,
                                  double largest_radius, Particles& particles, std::int64_t& next_id,
-                                 StreamProgress& progress) {
+                                 ParticleTally& progress) {
   const StreamInsertion& spec = stream.spec;
   const double elapsed = std::min(time, spec.end_time) - spec.start_time;
   if (!(elapsed > 0.0)) return 0;
@@ -196,10 +196,10 @@ std::size_t insert_due_particles(const ParticleStream& stream, std::size_t strea
   // Whether particle n (of mass @p mass) is due: by count, or when its mass fits under the mass
   // due, so that neither ever runs ahead of the rate.
   const auto due = [&](double mass) {
-    return spec.particle_rate > 0.0 ? static_cast<double>(progress.inserted) < due_count
+    return spec.particle_rate > 0.0 ? static_cast<double>(progress.count) < due_count
                                     : progress.mass + mass <= due_mass;
   };
-  const double first_radius = stream_radius(stream, stream_index, progress.inserted);
+  const double first_radius = stream_radius(stream, stream_index, progress.count);
   const auto mass_of = [&](double r) { return sphere_mass(r, stream.density); };
   if (!due(mass_of(first_radius))) return 0;
 
@@ -208,8 +208,8 @@ std::size_t insert_due_particles(const ParticleStream& stream, std::size_t strea
   std::vector<double> placed_radius;
   std::size_t added = 0;
   for (double r = first_radius; due(mass_of(r));
-       r = stream_radius(stream, stream_index, progress.inserted)) {
-    Rng rng = keyed_rng(stream, stream_index, kCentreDraws, progress.inserted, step);
+       r = stream_radius(stream, stream_index, progress.count)) {
+    Rng rng = keyed_rng(stream, stream_index, kCentreDraws, progress.count, step);
     std::optional<Eigen::Vector3d> free;
     for (std::size_t attempt = 0; attempt < spec.max_attempts && !free; ++attempt) {
       Eigen::Vector3d centre;
@@ -237,7 +237,7 @@ std::size_t insert_due_particles(const ParticleStream& stream, std::size_t strea
     }
     placed.push_back(grid.local(*free));
     placed_radius.push_back(r);
-    ++progress.inserted;
+    ++progress.count;
     progress.mass += mass;
     ++added;
   }

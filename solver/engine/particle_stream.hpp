@@ -3,7 +3,7 @@
 /// Insertion during a run: a stream adds particles at a rate into a region, each where it
 /// overlaps no particle, as space allows. Serial and keyed by (seed, stream, particle, step), so
 /// the particles inserted are the same bytes for any thread count and across restarts: a
-/// checkpoint carries only each stream's StreamProgress.
+/// checkpoint carries only each stream's ParticleTally.
 
 #include <cstddef>
 #include <cstdint>
@@ -14,10 +14,11 @@
 
 namespace bondem {
 
-/// What a stream has inserted so far.
-struct StreamProgress {
-  std::int64_t inserted = 0;  ///< particles
-  double mass = 0.0;          ///< their mass [kg]
+/// A count of particles and their mass: what a stream has inserted so far, or what left the
+/// domain.
+struct ParticleTally {
+  std::int64_t count = 0;  ///< particles
+  double mass = 0.0;       ///< their mass [kg]
 };
 
 /// A case's stream with what the scene knows of its material.
@@ -40,6 +41,6 @@ double stream_radius(const ParticleStream& stream, std::size_t stream_index, std
 std::size_t insert_due_particles(const ParticleStream& stream, std::size_t stream_index,
                                  double time, std::int64_t step, const Domain& domain,
                                  double largest_radius, Particles& particles, std::int64_t& next_id,
-                                 StreamProgress& progress);
+                                 ParticleTally& progress);
 
 }  // namespace bondem

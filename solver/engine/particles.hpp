@@ -105,7 +105,8 @@ struct Particles {
   /// vector grown by doubling holds up to twice its particles, and moves them at every growth.
   void reserve(std::size_t count);
 
-  /// Reorder every field marked kReordered so that new index k holds old particle order[k].
+  /// Reorder every field marked kReordered so that new index k holds old particle order[k]; an
+  /// order shorter than size() drops the particles it leaves out.
   void permute(const std::vector<std::uint32_t>& order);
 
   /// Start tracking temperatures: every kThermal field gets a zero per particle, for the scene
@@ -286,7 +287,7 @@ inline void Particles::permute(const std::vector<std::uint32_t>& order) {
         [&](auto member) {
           auto& values = this->*member;
           if (values.empty()) return;  // thermal fields of a run without temperatures
-          std::remove_reference_t<decltype(values)> reordered(values.size());
+          std::remove_reference_t<decltype(values)> reordered(order.size() * stride);
           if (stride == 1) {
             for (std::size_t k = 0; k < order.size(); ++k) reordered[k] = values[order[k]];
           } else {

@@ -34,7 +34,7 @@ Stepper::Stepper(Scene& scene, PairFlag pair_flag)
   build_mesh_candidates(scene_, mesh_candidates_);
   compute_forces(std::numeric_limits<double>::quiet_NaN());
   bonds_formed_ = static_cast<std::int64_t>(contacts_.bonds_formed);
-  streams_.assign(scene_.streams.size(), StreamProgress{});
+  streams_.assign(scene_.streams.size(), ParticleTally{});
   for (const std::int64_t id : scene_.particles.id) next_id_ = std::max(next_id_, id + 1);
 }
 
@@ -80,6 +80,7 @@ Stepper::Stepper(Scene& scene, StepperState restored, PairFlag pair_flag)
   }
   streams_ = std::move(restored.streams);
   next_id_ = restored.next_particle_id;
+  removed_ = restored.removed;
 }
 
 template <bool kFriction, bool kModels, class Law>
@@ -250,6 +251,7 @@ void Stepper::rebuild_list() {
   const bool reorder =
       scene_.reorder_interval > 0 && (list_.build_count() % scene_.reorder_interval) == 0;
   CarriedPairs carried = release_pairs();
+  if (scene_.domain.remove_outside) remove_outside();
   list_.build(scene_.particles, scene_.domain, list_reach(), reorder);
   carry_pairs(std::move(carried));
   build_mesh_candidates(scene_, mesh_candidates_);
@@ -326,6 +328,22 @@ bool Stepper::finish_step(double dt) {
     laser_missed_ += laser_missed_power_ * dt;
   }
   return finite;
+}
+
+void Stepper::remove_outside() {
+  Particles& p = scene_.particles;
+  std::vector<std::uint32_t> kept;
+  kept.reserve(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (scene_.domain.outside({p.x[i], p.y[i], p.z[i]})) {
+      ++removed_.count;
+      removed_.mass += p.mass[i];
+    } else {
+      kept.push_back(static_cast<std::uint32_t>(i));
+    }
+  }
+  // Their pairs' state is left behind by the carry, which finds pairs by ids.
+  if (kept.size() < p.size()) p.permute(kept);
 }
 
 bool Stepper::insert_from_streams(double time) {
@@ -478,6 +496,7 @@ StepperState Stepper::save_state(SavedArrays arrays) const {
   state.laser_missed = laser_missed_;
   state.streams = streams_;
   state.next_particle_id = next_id_;
+  state.removed = removed_;
   for (const Boundary& boundary : scene_.boundaries) {
     for (int a = 0; a < 3; ++a) state.boundaries.push_back(boundary.center[a]);
     for (int a = 0; a < 3; ++a) state.boundaries.push_back(boundary.velocity[a]);

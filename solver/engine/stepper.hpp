@@ -57,12 +57,13 @@ struct StepperState {
   std::vector<SlipRecord> slips;  ///< springs and bond flags of the pairs in contact
   /// Pose of every boundary, kBoundaryStateValues each: centre, velocity, angle, angular velocity.
   std::vector<double> boundaries;
-  std::int64_t bonds_formed = 0;        ///< bonds formed so far
-  std::int64_t bonds_broken = 0;        ///< bonds lost so far
-  double laser_energy = 0.0;            ///< laser energy absorbed by particles so far [J]
-  double laser_missed = 0.0;            ///< absorbable laser energy that found no particle [J]
-  std::vector<StreamProgress> streams;  ///< what each of the scene's streams inserted so far
-  std::int64_t next_particle_id = 0;    ///< id of the next particle a stream inserts
+  std::int64_t bonds_formed = 0;       ///< bonds formed so far
+  std::int64_t bonds_broken = 0;       ///< bonds lost so far
+  double laser_energy = 0.0;           ///< laser energy absorbed by particles so far [J]
+  double laser_missed = 0.0;           ///< absorbable laser energy that found no particle [J]
+  std::vector<ParticleTally> streams;  ///< what each of the scene's streams inserted so far
+  ParticleTally removed;  ///< particles removed outside the domain so far, and their mass
+  std::int64_t next_particle_id = 0;  ///< id of the next particle a stream inserts
 };
 
 /// Whether Stepper::save_state() copies the arrays of the state.
@@ -132,7 +133,9 @@ class Stepper {
   /// Absorbable laser energy that fell between the particles, on the substrate, so far [J].
   double laser_missed() const { return laser_missed_; }
   /// What each of the scene's streams inserted so far.
-  const std::vector<StreamProgress>& streams() const { return streams_; }
+  const std::vector<ParticleTally>& streams() const { return streams_; }
+  /// Particles removed so far for leaving the domain (Domain::remove_outside), and their mass.
+  const ParticleTally& removed() const { return removed_; }
 
  private:
   /// Forces (and heat flows) at the current positions; @p laser_time, when finite, is the time at
@@ -187,8 +190,10 @@ class Stepper {
     return loaded || held || bonded[k] != 0;
   }
   /// Rebuild the list (reordering the particles every reorder_interval builds), carrying the
-  /// per-pair state over by ids.
+  /// per-pair state over by ids; first remove the particles outside the domain when it says so.
   void rebuild_list();
+  /// Drop the particles outside the domain (Domain::remove_outside), counting them in removed_.
+  void remove_outside();
   /// The list's reach beyond touching: the skin plus the range of contacts that outlive it.
   double list_reach() const { return scene_.skin + scene_.contact_range; }
   BlowUpError diagnose_blow_up(bool finite) const;
@@ -218,8 +223,9 @@ class Stepper {
   LaserScratch laser_scratch_;
   double laser_power_ = 0.0;  ///< absorbed in the last evaluation [W]
   double laser_missed_power_ = 0.0;
-  std::vector<StreamProgress> streams_;  ///< per scene stream
-  std::int64_t next_id_ = 0;             ///< id of the next inserted particle
+  std::vector<ParticleTally> streams_;  ///< per scene stream
+  std::int64_t next_id_ = 0;            ///< id of the next inserted particle
+  ParticleTally removed_;               ///< particles removed outside the domain so far
 };
 
 template <class Visit>
