@@ -30,6 +30,12 @@ class Reader {
 
   [[noreturn]] void fail(const YAML::Node& node, const std::string& path,
                          const std::string& what) const {
+    throw CaseError(origin(node, path) + ": " + what);
+  }
+
+  /// Where @p node (at key @p path) came from, as fail() names it: `file:line:column: 'path'`, or
+  /// the --set that gave it.
+  std::string origin(const YAML::Node& node, const std::string& path) const {
     std::ostringstream message;
     // The --set that gave this value, or one element of it (a list such as a velocity).
     auto set = overrides_.find(path);
@@ -44,8 +50,8 @@ class Reader {
       const YAML::Mark mark = node.Mark();
       if (mark.line >= 0) message << ":" << mark.line + 1 << ":" << mark.column + 1;
     }
-    message << ": " << (path.empty() ? "case" : "'" + path + "'") << ": " << what;
-    throw CaseError(message.str());
+    message << ": " << (path.empty() ? "case" : "'" + path + "'");
+    return message.str();
   }
 
   void expect_map(const YAML::Node& node, const std::string& path) const {
@@ -1589,7 +1595,8 @@ void read_output(const Reader& reader, const YAML::Node& root, Case& c) {
   if (const YAML::Node output = root["output"]) {
     reader.expect_map(output, "output");
     reader.check_keys(output, "output",
-                      {"directory", "history_interval", "checkpoint_interval", "vtk_interval"});
+                      {"directory", "history_interval", "checkpoint_interval", "vtk_interval",
+                       "history_fields", "state_interval"});
     const YAML::Node directory = reader.require(output, "output", "directory");
     c.output_directory = reader.text(directory, "output.directory");
     if (c.output_directory.empty()) reader.fail(directory, "output.directory", "is empty");
@@ -1601,6 +1608,25 @@ void read_output(const Reader& reader, const YAML::Node& root, Case& c) {
     }
     if (const YAML::Node interval = output["checkpoint_interval"]) {
       c.checkpoint_interval = reader.positive(interval, "output.checkpoint_interval");
+    }
+    if (const YAML::Node interval = output["state_interval"]) {
+      c.state_interval = reader.positive(interval, "output.state_interval");
+    }
+    if (const YAML::Node fields = output["history_fields"]) {
+      // The names are checked against the run's columns once its scene exists (run_case).
+      const std::string path = "output.history_fields";
+      if (!fields.IsSequence() || fields.size() == 0) {
+        reader.fail(fields, path, "expected a non-empty list of history column names");
+      }
+      for (std::size_t k = 0; k < fields.size(); ++k) {
+        const std::string name = reader.text(fields[k], Reader::join(path, k));
+        if (std::find(c.history_fields.begin(), c.history_fields.end(), name) !=
+            c.history_fields.end()) {
+          reader.fail(fields[k], Reader::join(path, k), "column '" + name + "' listed twice");
+        }
+        c.history_fields.push_back(name);
+      }
+      c.history_fields_origin = reader.origin(fields, path);
     }
   }
 }

@@ -182,16 +182,17 @@ bool is_run_output(const std::string& name) {
                              "clusters.csv", "layer.csv", "checkpoint.bin"}) {
     if (name == output) return true;
   }
-  return is_vtk_series(name);
+  return is_vtk_series(name) || state_file_index(name) >= 0;
 }
 
 /// A run owns its output directory: remove what an earlier run left in it, so that every file
 /// there belongs to this run. Removed: temporaries `<output>.tmp.<pid>` of processes that no
 /// longer run (a SIGKILL during a write), and every output bondem writes (is_run_output()),
-/// except @p keep (the checkpoint a restart reads) and, when @p keep_vtk_series, the VTK series
-/// (a restart trims it to the checkpoint's time itself). Files bondem does not write stay.
+/// except @p keep (the checkpoint a restart reads), when @p keep_vtk_series the VTK series (a
+/// restart trims it to the checkpoint's time itself), and the state snapshots up to index
+/// @p keep_states_through (-1: none). Files bondem does not write stay.
 void remove_stale_outputs(const std::filesystem::path& directory, const std::filesystem::path& keep,
-                          bool keep_vtk_series) {
+                          bool keep_vtk_series, std::int64_t keep_states_through) {
   namespace fs = std::filesystem;
   std::error_code error;
   std::vector<fs::path> stale;
@@ -217,6 +218,10 @@ void remove_stale_outputs(const std::filesystem::path& directory, const std::fil
     }
     if (!is_run_output(name)) continue;
     if (keep_vtk_series && is_vtk_series(name)) continue;
+    if (const std::int64_t state = state_file_index(name);
+        state >= 0 && state <= keep_states_through) {
+      continue;
+    }
     std::error_code not_same;  // keep may not exist: then nothing is kept
     if (!keep.empty() && fs::equivalent(entry.path(), keep, not_same)) continue;
     stale.push_back(entry.path());
@@ -240,6 +245,8 @@ struct RunPlan {
   std::int64_t history_every = 0;
   std::int64_t vtk_every = 0;
   std::int64_t checkpoint_every = 0;
+  std::int64_t state_every = 0;  ///< 0: no state snapshots
+  std::int64_t first_step = 0;   ///< the checkpoint's step on a restart, else 0
   std::filesystem::path directory;
   std::string checkpoint_path;
   std::uint64_t fingerprint = 0;
@@ -284,6 +291,9 @@ RunPlan plan_run(const Case& description, const RunOptions& options) {
   plan.history_every = every(description.history_interval, description.end_time / 100.0);
   plan.vtk_every = every(description.vtk_interval, 2.0 * description.end_time);
   plan.checkpoint_every = every(description.checkpoint_interval, 2.0 * description.end_time);
+  if (description.state_interval > 0.0) {
+    plan.state_every = every(description.state_interval, description.state_interval);
+  }
   return plan;
 }
 
@@ -325,8 +335,11 @@ void prepare_output_directory(const Case& description, const RunOptions& options
                                              ? description.source + ": 'output.directory'"
                                              : "--output " + options.output_directory);
   const bool keep_vtk_series = plan.restarting && description.vtk_interval > 0.0;
-  remove_stale_outputs(plan.directory, plan.restarting ? options.restart_path : "",
-                       keep_vtk_series);
+  // A restart keeps the snapshots an uninterrupted run writes up to its checkpoint.
+  const std::int64_t keep_states =
+      plan.restarting && plan.state_every > 0 ? plan.first_step / plan.state_every : -1;
+  remove_stale_outputs(plan.directory, plan.restarting ? options.restart_path : "", keep_vtk_series,
+                       keep_states);
 }
 
 /// The message of a blow-up report: @p e, the likely cause, and where the last good state is.
@@ -354,6 +367,30 @@ std::string blow_up_message(const BlowUpError& e, const Case& description, const
   }
   message << ". Last good state: " << (plan.directory / "last_good_state.csv").string();
   return message.str();
+}
+
+/// Refuses, before any output is written, an output.history_fields name without a column in
+/// this run, and a restart whose columns differ from those of the history it continues
+/// (@p restored_history; empty for a fresh run).
+void check_history_fields(const Case& description, const Scene& scene, const Stepper& stepper,
+                          const std::string& restored_history) {
+  std::vector<BoundaryLoad> loads;
+  std::vector<HistoryColumn> columns;
+  try {
+    columns =
+        select_history_columns(history_columns(scene, stepper, loads), description.history_fields);
+  } catch (const std::invalid_argument& e) {
+    throw CaseError(description.history_fields_origin + ": " + e.what());
+  }
+  if (restored_history.empty()) return;
+  const std::string header = history_header(columns);
+  if (restored_history.compare(0, header.size(), header) != 0) {
+    throw CaseError(description.source +
+                    ": 'output.history_fields': the history the checkpoint continues has other "
+                    "columns (" +
+                    restored_history.substr(0, restored_history.find('\n')) +
+                    "); a restart keeps them");
+  }
 }
 
 /// What a finished run reports: @p end of @p simulation, with the figures of its analysis.
@@ -402,8 +439,10 @@ RunResult simulate(const Case& description, const RunOptions& options, const Run
   // it holds every row the run produced; a checkpoint.bin beside it may be older (its own history
   // is inside it).
   HistoryFile history_file((plan.directory / "history.csv").string());
-  History history(scene, stepper, plan.history_every,
-                  [&history_file](const std::string& text) { history_file.append(text); });
+  History history(
+      scene, stepper, plan.history_every,
+      [&history_file](const std::string& text) { history_file.append(text); },
+      description.history_fields);
   if (plan.restarting) history.continue_from(std::move(history_text));
   Progress progress(log, options.quiet);
   LastGoodFile last_good((plan.directory / "last_good_state.csv").string(), scene.particles,
@@ -411,12 +450,14 @@ RunResult simulate(const Case& description, const RunOptions& options, const Run
   CheckpointFile checkpoint(plan.checkpoint_path, plan.fingerprint, plan.checkpoint_every, history);
   RunAnalysis analysis(description);
   EndOfRunFiles end_files(plan.directory, analysis);
+  std::optional<StateFiles> states;
+  if (plan.state_every > 0) states.emplace(plan.directory, plan.state_every);
 
   Simulation simulation(scene, stepper, plan.steps);
   simulation.stop_when(options.stop_requested);
-  for (Observer* observer :
-       std::initializer_list<Observer*>{&progress, &history, &last_good, vtk ? &*vtk : nullptr,
-                                        &checkpoint, &analysis, &end_files}) {
+  for (Observer* observer : std::initializer_list<Observer*>{
+           &progress, &history, &last_good, vtk ? &*vtk : nullptr, states ? &*states : nullptr,
+           &checkpoint, &analysis, &end_files}) {
     if (observer != nullptr) simulation.attach(*observer);
   }
   const RunEnd end = simulation.run();
@@ -436,7 +477,7 @@ RunResult simulate(const Case& description, const RunOptions& options, const Run
 }  // namespace
 
 RunResult run_case(Case description, const RunOptions& options, std::ostream& log) {
-  const RunPlan plan = plan_run(description, options);
+  RunPlan plan = plan_run(description, options);
   Scene scene = build_scene(description);
   // The case's particle list has become the scene's particles, and the plan holds what was
   // derived from it (fingerprint, limits): the run does not keep a second copy (72 B a
@@ -446,6 +487,7 @@ RunResult run_case(Case description, const RunOptions& options, std::ostream& lo
   std::string history_text;  // of the checkpoint a restart continues
   if (plan.restarting) {
     Checkpoint restored = read_fitting_checkpoint(description, options, plan, scene);
+    plan.first_step = restored.stepper.step;
     scene.particles = std::move(restored.particles);
     // A restart that writes VTK frames the interrupted run did not track displacements from
     // here, from zero.
@@ -458,6 +500,7 @@ RunResult run_case(Case description, const RunOptions& options, std::ostream& lo
   } else {
     stepper.emplace(scene);
   }
+  check_history_fields(description, scene, *stepper, history_text);
   prepare_output_directory(description, options, plan);
   return simulate(description, options, plan, scene, *stepper, std::move(history_text), log);
 }

@@ -6,8 +6,10 @@
 #include <array>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 #include <stdexcept>
+#include <string_view>
 #include <system_error>
 #include <utility>
 #include <variant>
@@ -94,6 +96,26 @@ void write_final_state(const Particles& p, const std::vector<std::string>& mater
     }
   }
   file.commit();
+}
+
+std::string state_file_name(std::int64_t index) {
+  char digits[32];
+  std::snprintf(digits, sizeof digits, "%06lld", static_cast<long long>(index));
+  return std::string("state_") + digits + ".csv";
+}
+
+std::int64_t state_file_index(const std::string& name) {
+  constexpr std::string_view kPrefix = "state_", kSuffix = ".csv";
+  if (name.size() < kPrefix.size() + 6 + kSuffix.size() || name.rfind(kPrefix, 0) != 0 ||
+      name.compare(name.size() - kSuffix.size(), kSuffix.size(), kSuffix) != 0) {
+    return -1;
+  }
+  const std::string_view digits(name.data() + kPrefix.size(),
+                                name.size() - kPrefix.size() - kSuffix.size());
+  std::int64_t index = -1;
+  const auto [end, error] = std::from_chars(digits.data(), digits.data() + digits.size(), index);
+  if (error != std::errc() || end != digits.data() + digits.size() || index < 0) return -1;
+  return state_file_name(index) == name ? index : -1;
 }
 
 HistoryFile::HistoryFile(std::string path)
@@ -319,6 +341,23 @@ std::vector<int> final_state_bonds(const Simulation& simulation) {
 }
 
 }  // namespace
+
+StateFiles::StateFiles(std::filesystem::path directory, std::int64_t every)
+    : directory_(std::move(directory)), every_(every) {}
+
+void StateFiles::start(const Simulation& simulation) {
+  if (simulation.step() == 0) write(simulation);
+}
+
+void StateFiles::after_step(const Simulation& simulation) {
+  if (simulation.step() % every_ == 0) write(simulation);
+}
+
+void StateFiles::write(const Simulation& simulation) const {
+  write_final_state(simulation.scene().particles, simulation.scene().material_names,
+                    (directory_ / state_file_name(simulation.step() / every_)).string(),
+                    final_state_bonds(simulation));
+}
 
 EndOfRunFiles::EndOfRunFiles(std::filesystem::path directory, const RunAnalysis& analysis)
     : directory_(std::move(directory)), analysis_(analysis) {}

@@ -91,6 +91,26 @@ class VtkFrames : public Observer {
   std::vector<ContactRecord> contacts_;
 };
 
+/// Name of state snapshot @p index: state_000012.csv.
+std::string state_file_name(std::int64_t index);
+
+/// The index of a state snapshot's file name, or -1 for another name.
+std::int64_t state_file_index(const std::string& name);
+
+/// state_<n>.csv, in the format of final_state.csv, at step 0 and every @p every steps after:
+/// snapshot n is of step n * every (a restart keeps the ones up to its checkpoint).
+class StateFiles : public Observer {
+ public:
+  StateFiles(std::filesystem::path directory, std::int64_t every);
+  void start(const Simulation& simulation) override;
+  void after_step(const Simulation& simulation) override;
+
+ private:
+  void write(const Simulation& simulation) const;
+  std::filesystem::path directory_;
+  std::int64_t every_;
+};
+
 /// checkpoint.bin (particles, stepper state, the history's text, the case fingerprint) every
 /// @p every steps, at a stop request and at the end; nothing on a blow-up.
 class CheckpointFile : public Observer {

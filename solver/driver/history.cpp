@@ -86,8 +86,30 @@ std::string history_header(const std::vector<HistoryColumn>& columns) {
   return header + '\n';
 }
 
-History::History(const Scene& scene, const Stepper& stepper, std::int64_t every, Sink sink)
-    : columns_(history_columns(scene, stepper, loads_)),
+std::vector<HistoryColumn> select_history_columns(std::vector<HistoryColumn> columns,
+                                                  const std::vector<std::string>& names) {
+  if (names.empty()) return columns;
+  const auto named = [&](const std::string& name) {
+    return std::find_if(columns.begin(), columns.end(),
+                        [&](const HistoryColumn& c) { return c.name == name; });
+  };
+  std::vector<HistoryColumn> selected{*named("time")};
+  for (const std::string& name : names) {
+    const auto column = named(name);
+    if (column == columns.end()) {
+      std::string available;
+      for (const HistoryColumn& c : columns) available += (available.empty() ? "" : ", ") + c.name;
+      throw std::invalid_argument("no history column '" + name + "' in this run (it has " +
+                                  available + ")");
+    }
+    if (name != "time") selected.push_back(*column);
+  }
+  return selected;
+}
+
+History::History(const Scene& scene, const Stepper& stepper, std::int64_t every, Sink sink,
+                 const std::vector<std::string>& fields)
+    : columns_(select_history_columns(history_columns(scene, stepper, loads_), fields)),
       every_(every),
       sink_(std::move(sink)),
       text_(history_header(columns_)) {}

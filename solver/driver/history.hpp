@@ -37,6 +37,12 @@ struct HistoryColumn {
 std::vector<HistoryColumn> history_columns(const Scene& scene, const Stepper& stepper,
                                            const std::vector<BoundaryLoad>& loads);
 
+/// The columns of @p columns named in @p names, in that order after `time` (always first; listed
+/// or not); empty @p names: all. Throws std::invalid_argument, listing the columns there are, for
+/// a name without a column.
+std::vector<HistoryColumn> select_history_columns(std::vector<HistoryColumn> columns,
+                                                  const std::vector<std::string>& names);
+
 /// The header line of the history (column names, comma-separated, newline-terminated).
 std::string history_header(const std::vector<HistoryColumn>& columns);
 
@@ -50,8 +56,10 @@ class History : public Observer {
   /// Receives the text as it grows: at start() the text so far, then each row.
   using Sink = std::function<void(const std::string& text)>;
 
-  /// Columns of @p scene stepped by @p stepper; the text starts with the header.
-  History(const Scene& scene, const Stepper& stepper, std::int64_t every, Sink sink = {});
+  /// Columns of @p scene stepped by @p stepper (those named in @p fields, select_history_columns);
+  /// the text starts with the header.
+  History(const Scene& scene, const Stepper& stepper, std::int64_t every, Sink sink = {},
+          const std::vector<std::string>& fields = {});
 
   /// Continue @p text (a restarted run's history, header included) instead of the header alone.
   void continue_from(std::string text) { text_ = std::move(text); }

@@ -148,9 +148,13 @@ struct Case {
   int reorder_interval = 20;  ///< neighbor-list builds between reorderings by cell (0: never)
   double max_overlap_fraction = 0.25;  ///< overlap / smaller radius that stops a run (blow-up)
   std::string output_directory = "output";
-  double checkpoint_interval = 0.0;     ///< [s] between checkpoints; 0: only at the end
-  double vtk_interval = 0.0;            ///< [s] between VTK frames; 0: no VTK output
-  double history_interval = 0.0;        ///< [s] between history rows; 0 picks end / 100
+  double checkpoint_interval = 0.0;  ///< [s] between checkpoints; 0: only at the end
+  double vtk_interval = 0.0;         ///< [s] between VTK frames; 0: no VTK output
+  double history_interval = 0.0;     ///< [s] between history rows; 0 picks end / 100
+  double state_interval = 0.0;       ///< [s] between state_<n>.csv snapshots; 0: none
+  /// history.csv's columns, in this order after `time` (always first); empty: every column.
+  std::vector<std::string> history_fields;
+  std::string history_fields_origin;    ///< where history_fields was read, for its errors
   std::optional<ThermalModel> thermal;  ///< absent: no temperatures are tracked
   std::optional<Laser> laser;           ///< a moving heat source (needs `thermal`)
   /// Region whose particle centres define the reported bed solid fraction and coordination.

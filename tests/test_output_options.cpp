@@ -1,0 +1,107 @@
+// Configurable output: output.history_fields chooses history.csv's columns, output.state_interval
+// writes state_<n>.csv snapshots; both checked before anything is written, and kept by restarts.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "io/case_file.hpp"
+#include "io/run.hpp"
+#include "io/run_observers.hpp"
+#include "run_helpers.hpp"
+
+namespace bondem {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// The CI pouring case to @p end [s] with @p output appended to its `output:` block.
+Case pouring(double end, const std::string& output) {
+  std::ifstream in(BONDEM_CASES_DIR "/powder_pouring_ci.yaml");
+  std::stringstream text;
+  text << in.rdbuf() << output;
+  return parse_case(text.str(), "pouring.yaml", {"time.end=" + std::to_string(end)});
+}
+
+std::string first_line(const fs::path& file) {
+  std::istringstream in(testing::file_bytes(file));
+  std::string line;
+  std::getline(in, line);
+  return line;
+}
+
+TEST(OutputOptions, HistoryFieldsChooseTheColumnsInTheirOrderAfterTime) {
+  const fs::path directory = testing::fresh_directory("output_history_fields");
+  testing::quiet_run(
+      pouring(0.002, "  history_fields: [inserted, kinetic_energy, load_walls.0.z_min_z]\n"),
+      directory);
+  EXPECT_EQ(first_line(directory / "history.csv"),
+            "time,inserted,kinetic_energy,load_walls.0.z_min_z");
+}
+
+TEST(OutputOptions, UnknownHistoryFieldIsRefusedWithItsLineBeforeAnyOutput) {
+  const fs::path directory = testing::fresh_directory("output_history_unknown");
+  try {
+    testing::quiet_run(pouring(0.002, "  history_fields: [inserted, kinetic]\n"), directory);
+    ADD_FAILURE() << "an unknown history column was accepted";
+  } catch (const CaseError& e) {
+    const std::string what = e.what();
+    // The case file has 50 lines; the appended key is line 51.
+    EXPECT_NE(what.find("pouring.yaml:51:"), std::string::npos) << what;
+    EXPECT_NE(what.find("'output.history_fields': no history column 'kinetic'"), std::string::npos)
+        << what;
+    EXPECT_NE(what.find("kinetic_energy"), std::string::npos) << what;  // what there is
+  }
+  EXPECT_FALSE(fs::exists(directory));
+}
+
+TEST(OutputOptions, RestartKeepsTheHistoryColumns) {
+  const fs::path directory = testing::fresh_directory("output_history_restart");
+  testing::quiet_run(pouring(0.002, "  history_fields: [inserted]\n"), directory);
+  try {
+    testing::quiet_run(pouring(0.004, "  history_fields: [contacts]\n"), directory,
+                       (directory / "checkpoint.bin").string());
+    ADD_FAILURE() << "a restart with other history columns was accepted";
+  } catch (const CaseError& e) {
+    EXPECT_NE(std::string(e.what()).find("has other columns (time,inserted)"), std::string::npos)
+        << e.what();
+  }
+  testing::quiet_run(pouring(0.004, "  history_fields: [inserted]\n"), directory,
+                     (directory / "checkpoint.bin").string());
+  EXPECT_EQ(first_line(directory / "history.csv"), "time,inserted");
+}
+
+TEST(OutputOptions, StateSnapshotsAreFinalStatesAtTheirStepsAndSurviveARestart) {
+  const fs::path whole = testing::fresh_directory("output_states_whole");
+  const fs::path resumed = testing::fresh_directory("output_states_resumed");
+  const std::string every = "  state_interval: 0.002\n";
+  testing::quiet_run(pouring(0.006, every), whole);
+  // Snapshots at 0, 2, 4 and 6 ms; the last is the end, the same bytes as final_state.csv.
+  for (int n = 0; n <= 3; ++n) EXPECT_TRUE(fs::exists(whole / state_file_name(n))) << n;
+  EXPECT_FALSE(fs::exists(whole / state_file_name(4)));
+  EXPECT_TRUE(testing::file_bytes(whole / state_file_name(3)) ==
+              testing::file_bytes(whole / "final_state.csv"));
+  // The particles poured so far: 100 by 2 ms (50 000/s), none at the start.
+  EXPECT_EQ(first_line(whole / state_file_name(1)), "id,x,y,z,vx,vy,vz,radius,material,wx,wy,wz");
+  std::istringstream second(testing::file_bytes(whole / state_file_name(1)));
+  std::size_t rows = 0;
+  for (std::string line; std::getline(second, line);) ++rows;
+  EXPECT_EQ(rows, 101u);
+  // A run stopped at 5 ms and continued writes the same snapshots.
+  testing::quiet_run(pouring(0.005, every), resumed);
+  testing::quiet_run(pouring(0.006, every), resumed, (resumed / "checkpoint.bin").string());
+  for (int n = 0; n <= 3; ++n) {
+    EXPECT_TRUE(testing::file_bytes(whole / state_file_name(n)) ==
+                testing::file_bytes(resumed / state_file_name(n)))
+        << n;
+  }
+  EXPECT_EQ(state_file_index("state_000012.csv"), 12);
+  EXPECT_EQ(state_file_index("state_12.csv"), -1);
+  EXPECT_EQ(state_file_index("final_state.csv"), -1);
+}
+
+}  // namespace
+}  // namespace bondem
