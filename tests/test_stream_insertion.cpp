@@ -103,6 +103,25 @@ TEST(ParticleStream, InsertsTheDueCountInsideItsRegionWithNewIds) {
   EXPECT_EQ(progress.count, 12);
 }
 
+TEST(ParticleStream, ThermalParticlesStartAtTheStreamsTemperature) {
+  ParticleStream stream = make_stream({{0.001, 0.001, 0.001}, {0.009, 0.009, 0.009}});
+  stream.spec.temperature = 450.0;
+  stream.specific_heat = 500.0;
+  Particles p;
+  p.track_temperatures();  // a thermal run, still without particles
+  ParticleTally progress;
+  std::int64_t next_id = 0;
+  ASSERT_EQ(
+      insert_due_particles(stream, 0, 0.003, 1, box_domain(0.01), kRadius, p, next_id, progress),
+      3u);
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    EXPECT_EQ(p.temperature[i], 450.0);
+    EXPECT_EQ(p.peak_temperature[i], 450.0);
+    EXPECT_DOUBLE_EQ(1.0 / p.inv_heat_capacity[i], p.mass[i] * 500.0);  // m c_p
+    EXPECT_EQ(p.heat_rate[i], 0.0);
+  }
+}
+
 TEST(ParticleStream, MassRateNeverRunsAheadOfTheMassDue) {
   ParticleStream stream = make_stream({{0.001, 0.001, 0.001}, {0.009, 0.009, 0.009}}, true);
   stream.spec.particle_rate = 0.0;

@@ -92,7 +92,7 @@ class RegionGrid {
     for (std::size_t k = 0; k < centre_.size(); ++k) members_[next[cell_of[k]]++] = k;
   }
 
-  /// Whether a sphere at @p centre (region coordinates) of radius @p r overlaps a particle.
+  /// Whether a sphere at @p centre (local coordinates) of radius @p r overlaps a particle.
   bool overlaps(const Eigen::Vector3d& centre, double r) const {
     const std::array<int, 3> home = cell_index(centre);
     std::array<std::array<int, 3>, 3> around{};
@@ -127,7 +127,7 @@ class RegionGrid {
     return false;
   }
 
-  /// Whether spheres at @p a and @p b (local coordinates) overlap by less than nothing.
+  /// Whether spheres at @p a and @p b (local coordinates) do not overlap (touching allowed).
   bool apart(const Eigen::Vector3d& a, double ra, const Eigen::Vector3d& b, double rb) const {
     Eigen::Vector3d d = a - b;
     for (int axis = 0; axis < 3; ++axis) {
