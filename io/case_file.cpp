@@ -1596,7 +1596,7 @@ void read_output(const Reader& reader, const YAML::Node& root, Case& c) {
     reader.expect_map(output, "output");
     reader.check_keys(output, "output",
                       {"directory", "history_interval", "checkpoint_interval", "vtk_interval",
-                       "history_fields", "state_interval"});
+                       "history_fields", "state_interval", "vtk_fields"});
     const YAML::Node directory = reader.require(output, "output", "directory");
     c.output_directory = reader.text(directory, "output.directory");
     if (c.output_directory.empty()) reader.fail(directory, "output.directory", "is empty");
@@ -1612,21 +1612,28 @@ void read_output(const Reader& reader, const YAML::Node& root, Case& c) {
     if (const YAML::Node interval = output["state_interval"]) {
       c.state_interval = reader.positive(interval, "output.state_interval");
     }
-    if (const YAML::Node fields = output["history_fields"]) {
-      // The names are checked against the run's columns once its scene exists (run_case).
-      const std::string path = "output.history_fields";
+    // The names are checked against the run's columns and arrays once its scene exists
+    // (run_case), with the place they were read from.
+    const auto names = [&](const char* key, std::vector<std::string>& list, std::string& origin) {
+      const YAML::Node fields = output[key];
+      if (!fields) return;
+      const std::string path = std::string("output.") + key;
       if (!fields.IsSequence() || fields.size() == 0) {
-        reader.fail(fields, path, "expected a non-empty list of history column names");
+        reader.fail(fields, path, "expected a non-empty list of names");
       }
       for (std::size_t k = 0; k < fields.size(); ++k) {
         const std::string name = reader.text(fields[k], Reader::join(path, k));
-        if (std::find(c.history_fields.begin(), c.history_fields.end(), name) !=
-            c.history_fields.end()) {
-          reader.fail(fields[k], Reader::join(path, k), "column '" + name + "' listed twice");
+        if (std::find(list.begin(), list.end(), name) != list.end()) {
+          reader.fail(fields[k], Reader::join(path, k), "'" + name + "' listed twice");
         }
-        c.history_fields.push_back(name);
+        list.push_back(name);
       }
-      c.history_fields_origin = reader.origin(fields, path);
+      origin = reader.origin(fields, path);
+    };
+    names("history_fields", c.history_fields, c.history_fields_origin);
+    names("vtk_fields", c.vtk_fields, c.vtk_fields_origin);
+    if (!c.vtk_fields.empty() && c.vtk_interval == 0.0) {
+      reader.fail(output["vtk_fields"], "output.vtk_fields", "needs output.vtk_interval");
     }
   }
 }

@@ -370,10 +370,11 @@ std::string blow_up_message(const BlowUpError& e, const Case& description, const
 }
 
 /// Refuses, before any output is written, an output.history_fields name without a column in
-/// this run, and a restart whose columns differ from those of the history it continues
+/// this run, an output.vtk_fields name without a particle array, and a restart whose columns differ
+/// from those of the history it continues
 /// (@p restored_history; empty for a fresh run).
-void check_history_fields(const Case& description, const Scene& scene, const Stepper& stepper,
-                          const std::string& restored_history) {
+void check_output_fields(const Case& description, const Scene& scene, const Stepper& stepper,
+                         const std::string& restored_history) {
   std::vector<BoundaryLoad> loads;
   std::vector<HistoryColumn> columns;
   try {
@@ -381,6 +382,17 @@ void check_history_fields(const Case& description, const Scene& scene, const Ste
         select_history_columns(history_columns(scene, stepper, loads), description.history_fields);
   } catch (const std::invalid_argument& e) {
     throw CaseError(description.history_fields_origin + ": " + e.what());
+  }
+  if (!description.vtk_fields.empty()) {
+    const std::vector<std::string> arrays =
+        VtkSeriesWriter::particle_array_names(scene.particles, VtkFrames::derived_arrays());
+    for (const std::string& name : description.vtk_fields) {
+      if (std::find(arrays.begin(), arrays.end(), name) != arrays.end()) continue;
+      std::string available;
+      for (const std::string& a : arrays) available += (available.empty() ? "" : ", ") + a;
+      throw CaseError(description.vtk_fields_origin + ": no particle array '" + name +
+                      "' in this run (it has " + available + ")");
+    }
   }
   if (restored_history.empty()) return;
   const std::string header = history_header(columns);
@@ -432,7 +444,7 @@ RunResult simulate(const Case& description, const RunOptions& options, const Run
                    std::ostream& log) {
   std::optional<VtkFrames> vtk;  // first: a restart trims the series before the history is opened
   if (description.vtk_interval > 0.0) {
-    vtk.emplace(plan.directory, plan.vtk_every);
+    vtk.emplace(plan.directory, plan.vtk_every, description.vtk_fields);
     if (plan.restarting) vtk->resume(scene, stepper.step_count(), description.time_step);
   }
   // A restart first rewrites history.csv from the checkpoint. After a blow-up or an interruption
@@ -500,7 +512,7 @@ RunResult run_case(Case description, const RunOptions& options, std::ostream& lo
   } else {
     stepper.emplace(scene);
   }
-  check_history_fields(description, scene, *stepper, history_text);
+  check_output_fields(description, scene, *stepper, history_text);
   prepare_output_directory(description, options, plan);
   return simulate(description, options, plan, scene, *stepper, std::move(history_text), log);
 }

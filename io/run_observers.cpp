@@ -199,8 +199,16 @@ void LastGoodFile::interrupted(const Simulation& simulation, const Interruption&
   }
 }
 
-VtkFrames::VtkFrames(const std::filesystem::path& directory, std::int64_t every)
-    : every_(every), writer_(directory.string()) {}
+const std::vector<std::string>& VtkFrames::derived_arrays() {
+  static const std::vector<std::string> names{"coordination", "bond_count"};
+  return names;
+}
+
+VtkFrames::VtkFrames(const std::filesystem::path& directory, std::int64_t every,
+                     std::vector<std::string> fields)
+    : every_(every), writer_(directory.string()) {
+  writer_.select_particle_arrays(std::move(fields));
+}
 
 void VtkFrames::resume(const Scene& scene, std::int64_t checkpoint_step, double time_step) {
   writer_.resume(
@@ -251,8 +259,9 @@ void VtkFrames::write(const Scene& scene, const Stepper& stepper) {
     bond_count_[j] += bonded ? 1.0 : 0.0;
   });
   // The particles' own fields come from their table; only the per-frame derived arrays are passed.
+  const std::vector<std::string>& derived = derived_arrays();
   writer_.write_frame(stepper.time(), p, contacts_, scene.boundaries, scene.domain,
-                      {{"coordination", &coordination_}, {"bond_count", &bond_count_}});
+                      {{derived[0], &coordination_}, {derived[1], &bond_count_}});
 }
 
 CheckpointFile::CheckpointFile(std::string path, std::uint64_t fingerprint, std::int64_t every,

@@ -71,7 +71,12 @@ class LastGoodFile : public Observer {
 /// it).
 class VtkFrames : public Observer {
  public:
-  VtkFrames(const std::filesystem::path& directory, std::int64_t every);
+  /// The arrays it derives per frame besides the particles' own fields.
+  static const std::vector<std::string>& derived_arrays();
+
+  /// Frames into @p directory; @p fields: the particle arrays to write (empty: all).
+  VtkFrames(const std::filesystem::path& directory, std::int64_t every,
+            std::vector<std::string> fields = {});
 
   /// Continue the series of an interrupted run from the checkpoint at @p checkpoint_step: keep
   /// the frames an uninterrupted run writes up to it, drop the rest (the frame written at an

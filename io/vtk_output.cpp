@@ -240,9 +240,13 @@ vtkSmartPointer<vtkDataArray> make_table_array(const Particles& p, const TableAr
       array.rows[0]->member);
 }
 
-vtkSmartPointer<vtkPolyData> particle_data(
-    const Particles& p, const std::vector<VtkSeriesWriter::ScalarField>& scalars,
-    const std::vector<VtkSeriesWriter::VectorField>& vectors) {
+vtkSmartPointer<vtkPolyData> particle_data(const Particles& p,
+                                           const std::vector<VtkSeriesWriter::ScalarField>& scalars,
+                                           const std::vector<VtkSeriesWriter::VectorField>& vectors,
+                                           const std::vector<std::string>& selected) {
+  const auto wanted = [&](std::string_view name) {
+    return selected.empty() || std::find(selected.begin(), selected.end(), name) != selected.end();
+  };
   const std::size_t n = p.size();
   vtkNew<vtkPoints> points = make_points(n);
   // One vertex cell per particle: ParaView's Points and Surface representations draw only cells.
@@ -262,16 +266,17 @@ vtkSmartPointer<vtkPolyData> particle_data(
   auto next = table.begin();
   const auto add_table_until = [&](int order) {
     for (; next != table.end() && next->order < order; ++next) {
-      arrays->AddArray(make_table_array(p, *next));
+      if (wanted(next->name)) arrays->AddArray(make_table_array(p, *next));
     }
   };
   add_table_until(kVtkDerivedScalarsOrder);
   for (const VtkSeriesWriter::ScalarField& field : scalars) {
-    arrays->AddArray(scalar_array(field.name, *field.values));
+    if (wanted(field.name)) arrays->AddArray(scalar_array(field.name, *field.values));
   }
   add_table_until(kVtkDerivedVectorsOrder);
   for (const VtkSeriesWriter::VectorField& field : vectors) {
-    arrays->AddArray(vector_array(field.name, *field.x, *field.y, *field.z));
+    if (wanted(field.name))
+      arrays->AddArray(vector_array(field.name, *field.x, *field.y, *field.z));
   }
   add_table_until(std::numeric_limits<int>::max());
   return data;
@@ -560,6 +565,16 @@ bool VtkSeriesWriter::WallGeometry::same_as(const std::vector<PlaneWall>& other_
   return true;
 }
 
+std::vector<std::string> VtkSeriesWriter::particle_array_names(
+    const Particles& particles, const std::vector<std::string>& derived) {
+  std::vector<std::string> names;
+  for (const TableArray& array : table_arrays(particles)) names.emplace_back(array.name);
+  for (const std::string& name : derived) {
+    if (std::find(names.begin(), names.end(), name) == names.end()) names.push_back(name);
+  }
+  return names;
+}
+
 void VtkSeriesWriter::write_frame(double time, const Particles& particles,
                                   const std::vector<ContactRecord>& contacts,
                                   const std::vector<Boundary>& boundaries, const Domain& domain,
@@ -590,7 +605,7 @@ void VtkSeriesWriter::write_frame(double time, const Particles& particles,
 
   const std::size_t frame = times_.size();
   const fs::path dir(directory_);
-  write_vtp(particle_data(particles, scalars, vectors),
+  write_vtp(particle_data(particles, scalars, vectors, selected_),
             (dir / frame_file("particles", frame)).string());
   write_vtp(contact_data(contacts), (dir / frame_file("contacts", frame)).string());
   if (!bodies.empty()) {

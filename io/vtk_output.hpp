@@ -72,6 +72,14 @@ class VtkSeriesWriter {
   /// default) uses the domain diagonal, which makes every wall cover its whole cross-section.
   void set_wall_extent(double side);
 
+  /// Write only the particle arrays named in @p names (points are always written); empty: all.
+  void select_particle_arrays(std::vector<std::string> names) { selected_ = std::move(names); }
+
+  /// Names of the point arrays a particle file of @p particles has, with the derived arrays
+  /// @p derived (scalars and vectors alike): what select_particle_arrays() may name.
+  static std::vector<std::string> particle_array_names(const Particles& particles,
+                                                       const std::vector<std::string>& derived);
+
   /// Write one frame at simulated time @p time, which must be finite and later than the previous
   /// frame's (a .pvd with repeated times is ambiguous in ParaView).
   ///
@@ -134,6 +142,7 @@ class VtkSeriesWriter {
   std::vector<std::string> wall_files_;     ///< wall file of every frame written
   std::optional<WallGeometry> last_walls_;  ///< geometry of the newest wall file
   bool tools_ = false;                      ///< moving tools were written: keep a tools.pvd series
+  std::vector<std::string> selected_;       ///< particle arrays to write; empty: all
 };
 
 /// One data array read back from a .vtp file.

@@ -103,5 +103,31 @@ TEST(OutputOptions, StateSnapshotsAreFinalStatesAtTheirStepsAndSurviveARestart) 
   EXPECT_EQ(state_file_index("final_state.csv"), -1);
 }
 
+TEST(OutputOptions, VtkFieldsChooseTheParticleArrays) {
+  const fs::path directory = testing::fresh_directory("output_vtk_fields");
+  testing::quiet_run(pouring(0.002,
+                             "  vtk_interval: 0.001\n"
+                             "  vtk_fields: [radius, velocity, coordination]\n"),
+                     directory);
+  // The array names are in the XML header of the file, its data appended after it.
+  const std::string frame = testing::file_bytes(directory / "particles_000002.vtp");
+  for (const char* kept : {"radius", "velocity", "coordination"}) {
+    EXPECT_NE(frame.find(std::string("Name=\"") + kept + "\""), std::string::npos) << kept;
+  }
+  for (const char* left : {"force", "id", "material", "angular_velocity", "bond_count"}) {
+    EXPECT_EQ(frame.find(std::string("Name=\"") + left + "\""), std::string::npos) << left;
+  }
+  try {
+    testing::quiet_run(pouring(0.002, "  vtk_interval: 0.001\n  vtk_fields: [radius, speed]\n"),
+                       testing::fresh_directory("output_vtk_unknown"));
+    ADD_FAILURE() << "an unknown VTK array was accepted";
+  } catch (const CaseError& e) {
+    EXPECT_NE(std::string(e.what()).find("pouring.yaml:52:"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("no particle array 'speed'"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_FALSE(fs::exists(testing::test_root() / "bondem_output_vtk_unknown"));
+}
+
 }  // namespace
 }  // namespace bondem

@@ -154,7 +154,10 @@ struct Case {
   double state_interval = 0.0;       ///< [s] between state_<n>.csv snapshots; 0: none
   /// history.csv's columns, in this order after `time` (always first); empty: every column.
   std::vector<std::string> history_fields;
-  std::string history_fields_origin;    ///< where history_fields was read, for its errors
+  std::string history_fields_origin;  ///< where history_fields was read, for its errors
+  /// The particle arrays of the VTK frames; empty: every array.
+  std::vector<std::string> vtk_fields;
+  std::string vtk_fields_origin;        ///< where vtk_fields was read, for its errors
   std::optional<ThermalModel> thermal;  ///< absent: no temperatures are tracked
   std::optional<Laser> laser;           ///< a moving heat source (needs `thermal`)
   /// Region whose particle centres define the reported bed solid fraction and coordination.
