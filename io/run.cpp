@@ -160,7 +160,8 @@ void probe_output_directory(const std::filesystem::path& directory, const std::s
 /// True for a VTK series file: a collection `<kind>.pvd` or a frame `<kind>_NNNNNN.vtp` (six or
 /// more digits) of the particles, contacts, walls or tools.
 bool is_vtk_series(const std::string& name) {
-  for (const std::string kind : {"particles", "contacts", "walls", "tools"}) {
+  if (name == "domain.vtp") return true;
+  for (const std::string kind : {"particles", "contacts", "bonds", "walls", "tools"}) {
     if (name == kind + ".pvd") return true;
     const std::size_t first_digit = kind.size() + 1;
     if (name.size() < first_digit + 6 + 4 || name.compare(0, first_digit, kind + "_") != 0 ||

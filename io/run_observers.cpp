@@ -200,7 +200,7 @@ void LastGoodFile::interrupted(const Simulation& simulation, const Interruption&
 }
 
 const std::vector<std::string>& VtkFrames::derived_arrays() {
-  static const std::vector<std::string> names{"coordination", "bond_count"};
+  static const std::vector<std::string> names{"coordination", "bond_count", "diameter"};
   return names;
 }
 
@@ -210,7 +210,16 @@ VtkFrames::VtkFrames(const std::filesystem::path& directory, std::int64_t every,
   writer_.select_particle_arrays(std::move(fields));
 }
 
+void VtkFrames::describe(const Scene& scene) {
+  writer_.set_material_names(scene.material_names);
+  // A bonds series where some pair of materials can bond.
+  writer_.set_bonds_series(
+      std::any_of(scene.pair_table.begin(), scene.pair_table.end(),
+                  [](const PairCoefficients& c) { return c.criterion != BondCriterion::kNever; }));
+}
+
 void VtkFrames::resume(const Scene& scene, std::int64_t checkpoint_step, double time_step) {
+  describe(scene);
   writer_.resume(
       [&](double time) {
         const std::int64_t step = std::llround(time / time_step);
@@ -236,11 +245,20 @@ void VtkFrames::interrupted(const Simulation& simulation, const Interruption& wh
 }
 
 void VtkFrames::write(const Scene& scene, const Stepper& stepper) {
+  describe(scene);
   const Particles& p = scene.particles;
   const NeighborList& list = stepper.neighbors();
   const PairForces& forces = stepper.pair_forces();
   coordination_.assign(p.size(), 0.0);
   bond_count_.assign(p.size(), 0.0);
+  diameter_.resize(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) diameter_[i] = 2.0 * p.radius[i];
+  std::vector<BoundaryLoadRecord> loads;
+  const std::vector<BoundaryLoad> totals = stepper.boundary_loads();
+  for (std::size_t b = 0; b < totals.size(); ++b) {
+    loads.push_back({scene.boundaries[b].name, totals[b].force, totals[b].moment});
+  }
+  writer_.set_boundary_loads(std::move(loads));
   contacts_.clear();
   list.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
     // The end points are written to the file: the image of j is formed as a point first.
@@ -252,7 +270,7 @@ void VtkFrames::write(const Scene& scene, const Stepper& stepper) {
     const Eigen::Vector3d force(forces.fx[k], forces.fy[k], forces.fz[k]);
     const bool bonded = forces.bonded[k] != 0;
     contacts_.push_back(
-        {p.id[i], p.id[j], first, second, overlap, force.dot(d.normalized()), bonded});
+        {p.id[i], p.id[j], first, second, overlap, force.dot(d.normalized()), bonded, force});
     coordination_[i] += 1.0;
     coordination_[j] += 1.0;
     bond_count_[i] += bonded ? 1.0 : 0.0;
@@ -260,8 +278,9 @@ void VtkFrames::write(const Scene& scene, const Stepper& stepper) {
   });
   // The particles' own fields come from their table; only the per-frame derived arrays are passed.
   const std::vector<std::string>& derived = derived_arrays();
-  writer_.write_frame(stepper.time(), p, contacts_, scene.boundaries, scene.domain,
-                      {{derived[0], &coordination_}, {derived[1], &bond_count_}});
+  writer_.write_frame(
+      stepper.time(), p, contacts_, scene.boundaries, scene.domain,
+      {{derived[0], &coordination_}, {derived[1], &bond_count_}, {derived[2], &diameter_}});
 }
 
 CheckpointFile::CheckpointFile(std::string path, std::uint64_t fingerprint, std::int64_t every,

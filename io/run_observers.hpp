@@ -89,10 +89,12 @@ class VtkFrames : public Observer {
 
  private:
   void write(const Scene& scene, const Stepper& stepper);
+  /// Give the writer what the scene says of every frame: material names, a bonds series.
+  void describe(const Scene& scene);
 
   std::int64_t every_;
   VtkSeriesWriter writer_;
-  std::vector<double> coordination_, bond_count_;
+  std::vector<double> coordination_, bond_count_, diameter_;
   std::vector<ContactRecord> contacts_;
 };
 

@@ -8,12 +8,14 @@
 #include <vtkDoubleArray.h>
 #include <vtkErrorCode.h>
 #include <vtkExecutive.h>
+#include <vtkFieldData.h>
 #include <vtkIdList.h>
 #include <vtkNew.h>
 #include <vtkPointData.h>
 #include <vtkPoints.h>
 #include <vtkPolyData.h>
 #include <vtkSmartPointer.h>
+#include <vtkStringArray.h>
 #include <vtkTypeInt32Array.h>
 #include <vtkTypeInt64Array.h>
 #include <vtkTypeUInt8Array.h>
@@ -282,20 +284,79 @@ vtkSmartPointer<vtkPolyData> particle_data(const Particles& p,
   return data;
 }
 
-vtkSmartPointer<vtkPolyData> contact_data(const std::vector<ContactRecord>& contacts) {
-  const std::size_t m = contacts.size();
+/// Field data "TimeValue" (ParaView's name for a dataset's time): one double.
+void add_time_value(vtkPolyData* data, double time) {
+  vtkNew<vtkDoubleArray> value;
+  value->SetName("TimeValue");
+  value->SetNumberOfTuples(1);
+  value->SetValue(0, time);
+  data->GetFieldData()->AddArray(value);
+}
+
+/// A string field-data array called @p name.
+void add_strings(vtkPolyData* data, const char* name, const std::vector<std::string>& values) {
+  vtkNew<vtkStringArray> array;
+  array->SetName(name);
+  array->SetNumberOfValues(vtk_size(values.size()));
+  for (std::size_t k = 0; k < values.size(); ++k) array->SetValue(vtk_size(k), values[k]);
+  data->GetFieldData()->AddArray(array);
+}
+
+/// Lines of @p contacts, or of the bonded ones only when @p bonded_only.
+/// The 12 edges of the domain box, as lines (its faces would hide the particles).
+vtkSmartPointer<vtkPolyData> domain_data(const Domain& domain) {
+  vtkNew<vtkPoints> points = make_points(8);
+  for (int corner = 0; corner < 8; ++corner) {
+    const double x[3] = {(corner & 1) != 0 ? domain.max.x() : domain.min.x(),
+                         (corner & 2) != 0 ? domain.max.y() : domain.min.y(),
+                         (corner & 4) != 0 ? domain.max.z() : domain.min.z()};
+    points->SetPoint(corner, x);
+  }
+  vtkNew<vtkCellArray> edges;
+  for (int corner = 0; corner < 8; ++corner) {
+    for (const int bit : {1, 2, 4}) {
+      if ((corner & bit) != 0) continue;
+      const vtkIdType ends[2] = {corner, corner | bit};
+      edges->InsertNextCell(2, ends);
+    }
+  }
+  auto data = vtkSmartPointer<vtkPolyData>::New();
+  data->SetPoints(points);
+  data->SetLines(edges);
+  return data;
+}
+
+vtkSmartPointer<vtkPolyData> contact_data(const std::vector<ContactRecord>& all,
+                                          bool bonded_only = false) {
+  std::vector<const ContactRecord*> chosen;
+  for (const ContactRecord& c : all) {
+    if (!bonded_only || c.bonded) chosen.push_back(&c);
+  }
+  const std::size_t m = chosen.size();
+  const auto contact = [&](std::size_t k) -> const ContactRecord& { return *chosen[k]; };
   vtkNew<vtkPoints> points = make_points(2 * m);
   vtkNew<vtkCellArray> lines;
   lines->AllocateExact(vtk_size(m), vtk_size(2 * m));
   std::vector<double> overlap(m), normal_force(m);
+  // The force on j split along the line from i to j (normal) and across it (tangential).
+  StaggeredVector<double> nx(m), ny(m), nz(m), tx(m), ty(m), tz(m);
   for (std::size_t k = 0; k < m; ++k) {
-    const ContactRecord& c = contacts[k];
+    const ContactRecord& c = contact(k);
     const vtkIdType ends[2] = {vtk_size(2 * k), vtk_size(2 * k + 1)};
     points->SetPoint(ends[0], c.first_position.data());
     points->SetPoint(ends[1], c.second_position.data());
     lines->InsertNextCell(2, ends);
     overlap[k] = c.overlap;
     normal_force[k] = c.normal_force;
+    const Eigen::Vector3d n = (c.second_position - c.first_position).normalized();
+    const Eigen::Vector3d normal = c.force.dot(n) * n;
+    const Eigen::Vector3d tangential = c.force - normal;
+    nx[k] = normal.x();
+    ny[k] = normal.y();
+    nz[k] = normal.z();
+    tx[k] = tangential.x();
+    ty[k] = tangential.y();
+    tz[k] = tangential.z();
   }
   auto data = vtkSmartPointer<vtkPolyData>::New();
   data->SetPoints(points);
@@ -304,11 +365,13 @@ vtkSmartPointer<vtkPolyData> contact_data(const std::vector<ContactRecord>& cont
   arrays->AddArray(scalar_array("overlap", overlap));
   arrays->AddArray(scalar_array("normal_force", normal_force));
   arrays->AddArray(integer_array<vtkTypeUInt8Array>(
-      "bonded", m, [&](std::size_t k) { return contacts[k].bonded ? 1 : 0; }));
+      "bonded", m, [&](std::size_t k) { return contact(k).bonded ? 1 : 0; }));
   arrays->AddArray(
-      integer_array<vtkTypeInt64Array>("id_i", m, [&](std::size_t k) { return contacts[k].id_i; }));
+      integer_array<vtkTypeInt64Array>("id_i", m, [&](std::size_t k) { return contact(k).id_i; }));
   arrays->AddArray(
-      integer_array<vtkTypeInt64Array>("id_j", m, [&](std::size_t k) { return contacts[k].id_j; }));
+      integer_array<vtkTypeInt64Array>("id_j", m, [&](std::size_t k) { return contact(k).id_j; }));
+  arrays->AddArray(vector_array("normal_force_vector", nx, ny, nz));
+  arrays->AddArray(vector_array("tangential_force_vector", tx, ty, tz));
   return data;
 }
 
@@ -605,12 +668,40 @@ void VtkSeriesWriter::write_frame(double time, const Particles& particles,
 
   const std::size_t frame = times_.size();
   const fs::path dir(directory_);
-  write_vtp(particle_data(particles, scalars, vectors, selected_),
-            (dir / frame_file("particles", frame)).string());
-  write_vtp(contact_data(contacts), (dir / frame_file("contacts", frame)).string());
+  const vtkSmartPointer<vtkPolyData> points = particle_data(particles, scalars, vectors, selected_);
+  add_time_value(points, time);
+  if (!material_names_.empty()) add_strings(points, "material_names", material_names_);
+  if (!loads_.empty()) {
+    std::vector<std::string> names;
+    StaggeredVector<double> f[3], m[3];
+    for (const BoundaryLoadRecord& load : loads_) {
+      names.push_back(load.name);
+      for (int a = 0; a < 3; ++a) {
+        f[a].push_back(load.force[a]);
+        m[a].push_back(load.moment[a]);
+      }
+    }
+    add_strings(points, "boundary_names", names);
+    points->GetFieldData()->AddArray(vector_array("boundary_force", f[0], f[1], f[2]));
+    points->GetFieldData()->AddArray(vector_array("boundary_moment", m[0], m[1], m[2]));
+  }
+  write_vtp(points, (dir / frame_file("particles", frame)).string());
+  const vtkSmartPointer<vtkPolyData> lines = contact_data(contacts);
+  add_time_value(lines, time);
+  write_vtp(lines, (dir / frame_file("contacts", frame)).string());
+  if (bonds_) {
+    const vtkSmartPointer<vtkPolyData> bonds = contact_data(contacts, true);
+    add_time_value(bonds, time);
+    write_vtp(bonds, (dir / frame_file("bonds", frame)).string());
+  }
   if (!bodies.empty()) {
-    write_vtp(tool_data(bodies, domain), (dir / frame_file("tools", frame)).string());
+    const vtkSmartPointer<vtkPolyData> tools = tool_data(bodies, domain);
+    add_time_value(tools, time);
+    write_vtp(tools, (dir / frame_file("tools", frame)).string());
     tools_ = true;
+  }
+  if (frame == 0 || !fs::exists(dir / "domain.vtp")) {
+    write_vtp(domain_data(domain), (dir / "domain.vtp").string());
   }
 
   std::optional<WallGeometry> walls_before = last_walls_;
@@ -666,7 +757,7 @@ void VtkSeriesWriter::resume(const std::function<bool(double)>& keep_frame,
   }
   // Frames are numbered in order and a wall file is named after the frame that first drew it, so
   // every file numbered at or after the first dropped frame belongs to dropped frames only.
-  static const std::regex frame_name("(particles|contacts|walls|tools)_([0-9]{6,12})\\.vtp");
+  static const std::regex frame_name("(particles|contacts|bonds|walls|tools)_([0-9]{6,12})\\.vtp");
   std::error_code error;
   std::vector<fs::path> dropped;
   for (const fs::directory_entry& file : fs::directory_iterator(dir, error)) {
@@ -679,7 +770,8 @@ void VtkSeriesWriter::resume(const std::function<bool(double)>& keep_frame,
   for (const fs::path& path : dropped) fs::remove(path, error);
   tools_ = fs::exists(dir / "tools.pvd", error);
   if (times_.empty()) {
-    for (const char* name : {"particles.pvd", "contacts.pvd", "walls.pvd", "tools.pvd"}) {
+    for (const char* name :
+         {"particles.pvd", "contacts.pvd", "bonds.pvd", "walls.pvd", "tools.pvd", "domain.vtp"}) {
       fs::remove(dir / name, error);
     }
     tools_ = false;
@@ -699,6 +791,13 @@ void VtkSeriesWriter::write_collections() const {
   write_collection((dir / "particles.pvd").string(), times_, particle_files);
   write_collection((dir / "contacts.pvd").string(), times_, contact_files);
   write_collection((dir / "walls.pvd").string(), times_, wall_files_);
+  if (bonds_) {
+    std::vector<std::string> bond_files;
+    for (std::size_t frame = 0; frame < times_.size(); ++frame) {
+      bond_files.push_back(frame_file("bonds", frame));
+    }
+    write_collection((dir / "bonds.pvd").string(), times_, bond_files);
+  }
   if (tools_) {
     std::vector<std::string> tool_files;
     for (std::size_t frame = 0; frame < times_.size(); ++frame) {
@@ -751,6 +850,25 @@ VtpContents read_vtp(const std::string& path) {
   contents.polys = read_cells(data->GetPolys());
   contents.point_arrays = read_arrays(data->GetPointData());
   contents.cell_arrays = read_arrays(data->GetCellData());
+  vtkFieldData* fields = data->GetFieldData();
+  for (int k = 0; k < fields->GetNumberOfArrays(); ++k) {
+    if (vtkDataArray* numbers = fields->GetArray(k)) {
+      VtpArray array{
+          numbers->GetName(), xml_type_name(numbers), numbers->GetNumberOfComponents(), {}};
+      for (vtkIdType t = 0; t < numbers->GetNumberOfTuples(); ++t) {
+        for (int c = 0; c < array.components; ++c) {
+          array.values.push_back(numbers->GetComponent(t, c));
+        }
+      }
+      contents.field_arrays.push_back(array);
+    } else if (auto* strings = vtkStringArray::SafeDownCast(fields->GetAbstractArray(k))) {
+      std::vector<std::string> values;
+      for (vtkIdType v = 0; v < strings->GetNumberOfValues(); ++v) {
+        values.push_back(strings->GetValue(v));
+      }
+      contents.string_fields.emplace_back(strings->GetName(), values);
+    }
+  }
   return contents;
 }
 

@@ -6,7 +6,9 @@
 ///   particles_NNNNNN.vtp  one per frame (NNNNNN = frame index, zero padded to six digits)
 ///   contacts_NNNNNN.vtp   one per frame
 ///   walls_NNNNNN.vtp      only for frames whose wall geometry differs from the last one written
-///   particles.pvd, contacts.pvd, walls.pvd  collections with one DataSet per frame
+///   bonds_NNNNNN.vtp      one per frame when the series has bonds (set_bonds_series)
+///   particles.pvd, contacts.pvd, walls.pvd (bonds.pvd, tools.pvd)  one DataSet per frame
+///   domain.vtp            the domain box as 12 edges, written with the first frame
 /// walls.pvd has an entry for every frame, pointing at the wall file current at that frame:
 /// ParaView's PVD reader shows, for a requested time, the first entry at or after it, so a sparse
 /// list would show a moved wall before it moved. Static walls therefore cost one file.
@@ -36,6 +38,15 @@ struct ContactRecord {
   double overlap = 0.0;                                       ///< [m]
   double normal_force = 0.0;                                  ///< signed, as the law returns it [N]
   bool bonded = false;                                        ///< on the adhesive branch
+  Eigen::Vector3d force =
+      Eigen::Vector3d::Zero();  ///< the pair's force on j (normal + tangential) [N]
+};
+
+/// The load the particles put on one boundary in a frame, written with the particles.
+struct BoundaryLoadRecord {
+  std::string name;
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();   ///< [N]
+  Eigen::Vector3d moment = Eigen::Vector3d::Zero();  ///< about the boundary's reference point
 };
 
 /// Writes a time series for ParaView into one directory (see the file comment for the layout).
@@ -75,6 +86,16 @@ class VtkSeriesWriter {
   /// Write only the particle arrays named in @p names (points are always written); empty: all.
   void select_particle_arrays(std::vector<std::string> names) { selected_ = std::move(names); }
 
+  /// Names of the materials by index: field data "material_names" of every particle file.
+  void set_material_names(std::vector<std::string> names) { material_names_ = std::move(names); }
+
+  /// Also write the bonded contacts as a series of their own, bonds_NNNNNN.vtp.
+  void set_bonds_series(bool on) { bonds_ = on; }
+
+  /// The boundary loads of the next frame: field data of its particle file ("boundary_names",
+  /// "boundary_force", "boundary_moment", one tuple per boundary).
+  void set_boundary_loads(std::vector<BoundaryLoadRecord> loads) { loads_ = std::move(loads); }
+
   /// Names of the point arrays a particle file of @p particles has, with the derived arrays
   /// @p derived (scalars and vectors alike): what select_particle_arrays() may name.
   static std::vector<std::string> particle_array_names(const Particles& particles,
@@ -91,7 +112,12 @@ class VtkSeriesWriter {
   ///   A derived field that is one of the particles' own arrays under its table name is written
   ///   once, at its table place; any other repeated name is refused.
   /// contacts: one line per record, two points of its own each; cell arrays "overlap",
-  ///   "normal_force", "bonded" (UInt8), "id_i", "id_j" (Int64).
+  ///   "normal_force", "bonded" (UInt8), "id_i", "id_j" (Int64), "normal_force_vector" and
+  ///   "tangential_force_vector" (the record's force split along and across the line).
+  /// bonds (set_bonds_series): the bonded records alone, with the same arrays.
+  /// Particle, contact, bond and tool files carry the field data "TimeValue" (@p time); particle
+  ///   files also "material_names" and the boundary loads (set_boundary_loads). domain.vtp, the
+  ///   box's 12 edges, is written with the first frame.
   /// walls: one polygon per plane boundary at its current position, a square centred at the
   ///   projection of the domain centre onto the plane, clipped to the domain box (unclipped if the
   ///   plane misses the box); box faces come out as exactly the domain's faces. Cell arrays
@@ -138,11 +164,14 @@ class VtkSeriesWriter {
 
   std::string directory_;
   double wall_extent_ = 0.0;
-  std::vector<double> times_;               ///< time of every frame written
-  std::vector<std::string> wall_files_;     ///< wall file of every frame written
-  std::optional<WallGeometry> last_walls_;  ///< geometry of the newest wall file
-  bool tools_ = false;                      ///< moving tools were written: keep a tools.pvd series
-  std::vector<std::string> selected_;       ///< particle arrays to write; empty: all
+  std::vector<double> times_;                ///< time of every frame written
+  std::vector<std::string> wall_files_;      ///< wall file of every frame written
+  std::optional<WallGeometry> last_walls_;   ///< geometry of the newest wall file
+  bool tools_ = false;                       ///< moving tools were written: keep a tools.pvd series
+  std::vector<std::string> selected_;        ///< particle arrays to write; empty: all
+  std::vector<std::string> material_names_;  ///< by material index
+  std::vector<BoundaryLoadRecord> loads_;    ///< of the next frame
+  bool bonds_ = false;                       ///< write the bonds series
 };
 
 /// One data array read back from a .vtp file.
@@ -159,6 +188,9 @@ struct VtpContents {
   std::vector<std::vector<std::int64_t>> cells;  ///< point ids: verts, then lines, then polygons
   std::size_t verts = 0, lines = 0, polys = 0;   ///< cells of each kind
   std::vector<VtpArray> point_arrays, cell_arrays;
+  std::vector<VtpArray> field_arrays;  ///< numeric field data (TimeValue, boundary loads)
+  /// String field data by name (material_names, boundary_names).
+  std::vector<std::pair<std::string, std::vector<std::string>>> string_fields;
 
   /// The point array called @p name, or nullptr.
   const VtpArray* point_array(const std::string& name) const;

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -11,6 +12,7 @@
 #include "io/case_file.hpp"
 #include "io/run.hpp"
 #include "io/run_observers.hpp"
+#include "io/vtk_output.hpp"
 #include "run_helpers.hpp"
 
 namespace bondem {
@@ -127,6 +129,65 @@ TEST(OutputOptions, VtkFieldsChooseTheParticleArrays) {
         << e.what();
   }
   EXPECT_FALSE(fs::exists(testing::test_root() / "bondem_output_vtk_unknown"));
+}
+
+TEST(ParaViewOutput, FramesCarryTimeMaterialsLoadsDiametersAndForceVectors) {
+  const fs::path directory = testing::fresh_directory("output_paraview");
+  // At 20 ms the first spheres have landed: contacts with tangential forces.
+  testing::quiet_run(pouring(0.02, "  vtk_interval: 0.01\n"), directory);
+  const VtpContents frame = read_vtp((directory / "particles_000002.vtp").string());
+  // ParaView's own name for a dataset's time.
+  const VtpArray* time = nullptr;
+  for (const VtpArray& a : frame.field_arrays) time = a.name == "TimeValue" ? &a : time;
+  ASSERT_NE(time, nullptr);
+  EXPECT_EQ(time->values, std::vector<double>{0.02});
+  const VtpArray* diameter = frame.point_array("diameter");
+  const VtpArray* radius = frame.point_array("radius");
+  ASSERT_TRUE(diameter != nullptr && radius != nullptr);
+  for (std::size_t i = 0; i < radius->values.size(); ++i) {
+    EXPECT_EQ(diameter->values[i], 2.0 * radius->values[i]);
+  }
+  std::map<std::string, std::vector<std::string>> strings(frame.string_fields.begin(),
+                                                          frame.string_fields.end());
+  EXPECT_EQ(strings["material_names"], (std::vector<std::string>{"powder", "wall"}));
+  // One load per boundary, the box's five faces, named as in history.csv.
+  ASSERT_EQ(strings["boundary_names"].size(), 5u);
+  EXPECT_EQ(strings["boundary_names"][4], "walls.0.z_min");
+  const VtpArray* load = nullptr;
+  for (const VtpArray& a : frame.field_arrays) load = a.name == "boundary_force" ? &a : load;
+  ASSERT_NE(load, nullptr);
+  EXPECT_EQ(load->values.size(), 15u);
+
+  // A contact's normal and tangential vectors: along and across the line of centres.
+  const VtpContents lines = read_vtp((directory / "contacts_000002.vtp").string());
+  const VtpArray* normal = lines.cell_array("normal_force_vector");
+  const VtpArray* tangential = lines.cell_array("tangential_force_vector");
+  const VtpArray* magnitude = lines.cell_array("normal_force");
+  ASSERT_TRUE(normal != nullptr && tangential != nullptr && magnitude != nullptr);
+  ASSERT_GT(lines.lines, 0u);
+  for (std::size_t k = 0; k < lines.lines; ++k) {
+    const Eigen::Vector3d axis = (lines.points[2 * k + 1] - lines.points[2 * k]).normalized();
+    const Eigen::Vector3d n(&normal->values[3 * k]);
+    const Eigen::Vector3d t(&tangential->values[3 * k]);
+    EXPECT_NEAR(n.dot(axis), magnitude->values[k], 1e-12 * std::abs(magnitude->values[k]));
+    EXPECT_LE(std::abs(t.dot(axis)), 1e-9 * (t.norm() + n.norm()));
+  }
+  // A cold powder has no bonds series; the domain box is there once.
+  EXPECT_FALSE(fs::exists(directory / "bonds.pvd"));
+  EXPECT_EQ(read_vtp((directory / "domain.vtp").string()).lines, 12u);
+}
+
+TEST(ParaViewOutput, BondsAreASeriesOfTheirOwn) {
+  // The paper's example 5.1: two spheres bond in a central collision at 2.6 m/s.
+  const fs::path directory = testing::fresh_directory("output_bonds_series");
+  testing::quiet_run(load_case(BONDEM_CASES_DIR "/paper_5_1.yaml",
+                               {"output.vtk_interval=0.001", "time.end=0.002"}),
+                     directory);
+  ASSERT_TRUE(fs::exists(directory / "bonds.pvd"));
+  EXPECT_EQ(read_vtp((directory / "bonds_000000.vtp").string()).lines, 0u);  // not yet touching
+  const VtpContents bonded = read_vtp((directory / "bonds_000002.vtp").string());
+  ASSERT_EQ(bonded.lines, 1u);
+  EXPECT_EQ(bonded.cell_array("bonded")->values, std::vector<double>{1.0});
 }
 
 }  // namespace

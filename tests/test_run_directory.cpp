@@ -114,8 +114,9 @@ TEST(RunDirectory, EarlierRunsOutputsAndStaleTemporariesAreRemoved) {
   fs::create_directories(directory);
   for (const char* stale :
        {"final_state.csv", "checkpoint.bin", "last_good_state.csv", "clusters.csv", "layer.csv",
-        "particles_000042.vtp", "walls_000007.vtp", "tools.pvd", "walls.pvd",
-        "checkpoint.bin.tmp.999999999", "history.csv.tmp.999999998"}) {
+        "particles_000042.vtp", "walls_000007.vtp", "tools.pvd", "walls.pvd", "bonds.pvd",
+        "bonds_000003.vtp", "state_000004.csv", "checkpoint.bin.tmp.999999999",
+        "history.csv.tmp.999999998"}) {
     write_file(directory / stale, "from an earlier run\n");
   }
   for (const char* foreign : {"notes.txt", "history.csv.old", "particles_42.vtp"}) {
@@ -123,11 +124,10 @@ TEST(RunDirectory, EarlierRunsOutputsAndStaleTemporariesAreRemoved) {
   }
   testing::quiet_run(small_pour({"output.vtk_interval=0.003"}), directory);
   const std::set<std::string> expected{
-      "history.csv",         "final_state.csv",      "checkpoint.bin",
-      "clusters.csv",        "particles.pvd",        "contacts.pvd",
-      "walls.pvd",           "particles_000000.vtp", "particles_000001.vtp",
-      "contacts_000000.vtp", "contacts_000001.vtp",  "walls_000000.vtp",
-      "notes.txt",           "history.csv.old",      "particles_42.vtp"};
+      "history.csv",          "final_state.csv",     "checkpoint.bin",      "clusters.csv",
+      "particles.pvd",        "contacts.pvd",        "walls.pvd",           "particles_000000.vtp",
+      "particles_000001.vtp", "contacts_000000.vtp", "contacts_000001.vtp", "walls_000000.vtp",
+      "domain.vtp",           "notes.txt",           "history.csv.old",     "particles_42.vtp"};
   EXPECT_EQ(names(directory_bytes(directory)), expected);
 }
 
