@@ -492,10 +492,11 @@ RunResult simulate(const Case& description, const RunOptions& options, const Run
 RunResult run_case(Case description, const RunOptions& options, std::ostream& log) {
   RunPlan plan = plan_run(description, options);
   Scene scene = build_scene(description);
-  // The case's particle list has become the scene's particles, and the plan holds what was
-  // derived from it (fingerprint, limits): the run does not keep a second copy (72 B a
-  // particle).
+  // The case's particle list has become the scene's particles, its initial pairs the scene's,
+  // and the plan holds what was derived from them (fingerprint, limits): the run does not keep a
+  // second copy (104 B a particle, 72 B a pair).
   std::vector<ParticleSpec>().swap(description.particles);
+  std::vector<SlipRecord>().swap(description.initial_pairs);
   std::optional<Stepper> stepper;
   std::string history_text;  // of the checkpoint a restart continues
   if (plan.restarting) {
