@@ -122,6 +122,22 @@ TEST(ParticleStream, ThermalParticlesStartAtTheStreamsTemperature) {
   }
 }
 
+TEST(ParticleStream, NoParticleStartsInsideABoundary) {
+  // A wall across the middle of the region, facing up (a platform, or a blade passing through a
+  // dosing box): every particle goes in front of it, none into it.
+  const ParticleStream stream = make_stream({{0.001, 0.001, 0.001}, {0.009, 0.009, 0.009}});
+  Boundary wall;
+  wall.name = "cut";
+  wall.shape = PlaneShape{};
+  wall.center = {0.005, 0.005, 0.005};
+  Particles p;
+  ParticleTally progress;
+  std::int64_t next_id = 0;
+  insert_due_particles(stream, 0, 0.05, 1, box_domain(0.01), kRadius, p, next_id, progress, {wall});
+  ASSERT_EQ(p.size(), 50u);
+  for (std::size_t i = 0; i < p.size(); ++i) EXPECT_GE(p.z[i], 0.005 + kRadius) << i;
+}
+
 TEST(ParticleStream, MassRateNeverRunsAheadOfTheMassDue) {
   ParticleStream stream = make_stream({{0.001, 0.001, 0.001}, {0.009, 0.009, 0.009}}, true);
   stream.spec.particle_rate = 0.0;

@@ -187,7 +187,7 @@ double stream_radius(const ParticleStream& stream, std::size_t stream_index, std
 std::size_t insert_due_particles(const ParticleStream& stream, std::size_t stream_index,
                                  double time, std::int64_t step, const Domain& domain,
                                  double largest_radius, Particles& particles, std::int64_t& next_id,
-                                 ParticleTally& progress) {
+                                 ParticleTally& progress, const std::vector<Boundary>& boundaries) {
   const StreamInsertion& spec = stream.spec;
   const double elapsed = std::min(time, spec.end_time) - spec.start_time;
   if (!(elapsed > 0.0)) return 0;
@@ -221,6 +221,9 @@ std::size_t insert_due_particles(const ParticleStream& stream, std::size_t strea
       }
       const Eigen::Vector3d u = grid.local(centre);
       bool blocked = grid.overlaps(u, r);
+      for (std::size_t b = 0; b < boundaries.size() && !blocked; ++b) {
+        blocked = overlaps(boundaries[b], centre, r);
+      }
       for (std::size_t k = 0; k < placed.size() && !blocked; ++k) {
         blocked = !grid.apart(u, r, placed[k], placed_radius[k]);
       }

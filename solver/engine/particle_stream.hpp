@@ -7,7 +7,9 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
+#include "geometry/boundary.hpp"
 #include "geometry/domain.hpp"
 #include "solver/engine/particles.hpp"
 #include "solver/setup/case.hpp"
@@ -34,13 +36,15 @@ double stream_radius(const ParticleStream& stream, std::size_t stream_index, std
 
 /// Insert into @p particles the particles of @p stream due by @p time (its rate times the time
 /// since its start, capped at its end), each at a random centre of its region that overlaps no
-/// particle (touching allowed; periodic axes of @p domain wrap), trying spec.max_attempts centres
-/// per particle. A particle that finds no room waits for the next call, and so do those after it.
+/// particle (touching allowed; periodic axes of @p domain wrap) and none of @p boundaries at their
+/// current pose (a blade passing through the region), trying spec.max_attempts centres per
+/// particle. A particle that finds no room waits for the next call, and so do those after it.
 /// @p largest_radius bounds every radius in the run (the reach of the overlap test); @p step keys
 /// the random centres. New particles get ids @p next_id, @p next_id + 1, ... Returns the count.
 std::size_t insert_due_particles(const ParticleStream& stream, std::size_t stream_index,
                                  double time, std::int64_t step, const Domain& domain,
                                  double largest_radius, Particles& particles, std::int64_t& next_id,
-                                 ParticleTally& progress);
+                                 ParticleTally& progress,
+                                 const std::vector<Boundary>& boundaries = {});
 
 }  // namespace bondem

@@ -350,7 +350,8 @@ bool Stepper::insert_from_streams(double time) {
   std::size_t added = 0;
   for (std::size_t k = 0; k < scene_.streams.size(); ++k) {
     added += insert_due_particles(scene_.streams[k], k, time, step_count_ + 1, scene_.domain,
-                                  scene_.largest_radius, scene_.particles, next_id_, streams_[k]);
+                                  scene_.largest_radius, scene_.particles, next_id_, streams_[k],
+                                  scene_.boundaries);
   }
   return added > 0;
 }
