@@ -1552,11 +1552,7 @@ void check_heat_capacities(const Reader& reader, const YAML::Node& root, Case& c
 /// A bond whose equilibrium overlap the run's own overlap limit forbids would stop every run that
 /// bonds: refuse delta_eq at or above limits.max_overlap_fraction of the smallest radius.
 void check_equilibrium_overlap(const Reader& reader, const YAML::Node& root, const Case& c) {
-  double smallest = std::numeric_limits<double>::infinity();
-  for (const ParticleSpec& p : c.particles) smallest = std::min(smallest, p.radius);
-  for (const StreamInsertion& s : c.streams)
-    smallest = std::min(smallest, smallest_radius(s.radius));
-  const double limit = c.max_overlap_fraction * smallest;
+  const double limit = c.max_overlap_fraction * smallest_radius(c);
   const auto check = [&](const BondModel& bond, const YAML::Node& node, const std::string& path) {
     if (bond.criterion == BondCriterion::kNever ||
         bond.input != AdhesionInput::kEquilibriumOverlap || bond.equilibrium_overlap < limit) {
@@ -1699,11 +1695,9 @@ void read_analysis(const Reader& reader, const YAML::Node& root, Case& c) {
     // Settings that could only fail after the last step are checked here, before step 0.
     static constexpr const char* kAxis[3] = {"x", "y", "z"};
     double radius_sum = 0.0;
-    double radius_min = std::numeric_limits<double>::infinity();
-    for (const ParticleSpec& p : c.particles) {
-      radius_sum += p.radius;
-      radius_min = std::min(radius_min, p.radius);
-    }
+    for (const ParticleSpec& p : c.particles) radius_sum += p.radius;
+    // A stream's particles too: a layer of poured powder has its smallest spheres at the surface.
+    const double radius_min = smallest_radius(c);
     if (const YAML::Node region = analysis["region"]) {
       c.analysis_region = read_box(reader, region, "analysis.region");
       const Box& box = *c.analysis_region;

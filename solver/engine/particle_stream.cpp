@@ -192,6 +192,8 @@ std::size_t insert_due_particles(const ParticleStream& stream, std::size_t strea
   const double elapsed = std::min(time, spec.end_time) - spec.start_time;
   if (!(elapsed > 0.0)) return 0;
   const double due_count = std::floor(spec.particle_rate * elapsed);
+  // Most steps owe nothing: a count stream knows so without drawing the next radius.
+  if (spec.particle_rate > 0.0 && !(static_cast<double>(progress.count) < due_count)) return 0;
   const double due_mass = spec.mass_rate * elapsed;
   // Whether particle n (of mass @p mass) is due: by count, or when its mass fits under the mass
   // due, so that neither ever runs ahead of the rate.

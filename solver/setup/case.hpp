@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <optional>
 #include <string>
@@ -183,6 +184,16 @@ inline double largest_radius(const Case& c) {
   for (const ParticleSpec& p : c.particles) largest = std::max(largest, p.radius);
   for (const StreamInsertion& s : c.streams) largest = std::max(largest, largest_radius(s.radius));
   return largest;
+}
+
+/// Smallest radius of case @p c: of its initial particles and of what its streams can insert
+/// (infinity for a case with neither).
+inline double smallest_radius(const Case& c) {
+  double smallest = std::numeric_limits<double>::infinity();
+  for (const ParticleSpec& p : c.particles) smallest = std::min(smallest, p.radius);
+  for (const StreamInsertion& s : c.streams)
+    smallest = std::min(smallest, smallest_radius(s.radius));
+  return smallest;
 }
 
 /// Verlet skin of case @p c whose largest radius is @p max_radius: neighbors.skin, or by default
