@@ -123,6 +123,24 @@ struct Boundary {
   }
 };
 
+/// Whether @p boundary's top is one level plane, something a bed can stand on: a box that does
+/// not turn, or a plane whose normal is +z.
+inline bool has_level_top(const Boundary& boundary) {
+  if (std::holds_alternative<BoxShape>(boundary.shape)) return !boundary.motion.rotates();
+  if (const auto* plane = std::get_if<PlaneShape>(&boundary.shape)) {
+    return plane->normal == Eigen::Vector3d::UnitZ();
+  }
+  return false;
+}
+
+/// Height of the level top of @p boundary at its current pose (has_level_top() must hold) [m].
+inline double level_top(const Boundary& boundary) {
+  if (const auto* box = std::get_if<BoxShape>(&boundary.shape)) {
+    return boundary.center.z() + box->half_size.z();
+  }
+  return boundary.center.z();
+}
+
 /// Advance @p boundary over the step [time, time + dt] by its motion table.
 inline void move_boundary(Boundary& boundary, double time, double dt) {
   const Motion& motion = boundary.motion;

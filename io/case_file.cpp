@@ -1635,16 +1635,24 @@ void read_output(const Reader& reader, const YAML::Node& root, Case& c) {
 }
 
 /// `analysis:`: the bed region and the spread layer, checked before step 0.
-/// `analysis.layer`: the spread layer's box, bins and surface grid (at most kMaxLayerColumns
-/// columns at the grid spacing, or at a quarter of @p radius_min by default).
+/// `analysis.layer`, or with @p series `analysis.layers`: the layer's box, bins and surface grid
+/// (at most kMaxLayerColumns columns at the grid spacing, or at a quarter of @p radius_min by
+/// default). A series also has `times` and an optional `platform`, read by its caller; with a
+/// platform its substrate moves, so it has no `substrate_z`.
 LayerRegion read_layer(const Reader& reader, const YAML::Node& layer, const Case& c,
-                       double radius_min) {
+                       double radius_min, bool series) {
   static constexpr const char* kAxis[3] = {"x", "y", "z"};
-  const std::string path = "analysis.layer";
+  const std::string path = series ? "analysis.layers" : "analysis.layer";
   reader.expect_map(layer, path);
-  reader.check_keys(
-      layer, path,
-      {"x_min", "x_max", "y_min", "y_max", "substrate_z", "layer_height", "bins", "grid_spacing"});
+  std::vector<std::string> keys = {"x_min",       "x_max",        "y_min", "y_max",
+                                   "substrate_z", "layer_height", "bins",  "grid_spacing"};
+  if (series) keys.insert(keys.end(), {"times", "platform"});
+  reader.check_keys(layer, path, keys);
+  const bool on_platform = series && layer["platform"];
+  if (on_platform && layer["substrate_z"]) {
+    reader.fail(layer["substrate_z"], path + ".substrate_z",
+                "give substrate_z or platform, not both (a platform carries the substrate)");
+  }
   LayerRegion r;
   r.x_min = reader.number(reader.require(layer, path, "x_min"), path + ".x_min");
   r.x_max = reader.number(reader.require(layer, path, "x_max"), path + ".x_max");
@@ -1652,7 +1660,10 @@ LayerRegion read_layer(const Reader& reader, const YAML::Node& layer, const Case
   r.y_max = reader.number(reader.require(layer, path, "y_max"), path + ".y_max");
   if (!(r.x_max > r.x_min)) reader.fail(layer["x_max"], path + ".x_max", "must exceed x_min");
   if (!(r.y_max > r.y_min)) reader.fail(layer["y_max"], path + ".y_max", "must exceed y_min");
-  r.substrate_z = reader.number(reader.require(layer, path, "substrate_z"), path + ".substrate_z");
+  if (!on_platform) {
+    r.substrate_z =
+        reader.number(reader.require(layer, path, "substrate_z"), path + ".substrate_z");
+  }
   r.layer_height =
       reader.positive(reader.require(layer, path, "layer_height"), path + ".layer_height");
   if (const YAML::Node bins = layer["bins"]) {
@@ -1665,7 +1676,7 @@ LayerRegion read_layer(const Reader& reader, const YAML::Node& layer, const Case
     const double layer_min[3] = {r.x_min, r.y_min, r.substrate_z};
     const double layer_max[3] = {r.x_max, r.y_max, r.substrate_z + r.layer_height};
     const char* bound[3] = {"x_min", "y_min", "substrate_z"};
-    for (int a = 0; a < 3; ++a) {
+    for (int a = 0; a < (on_platform ? 2 : 3); ++a) {
       if (layer_max[a] <= c.domain->min[a] || layer_min[a] >= c.domain->max[a]) {
         reader.fail(layer[bound[a]], path + "." + bound[a],
                     std::string("the layer lies outside the domain along ") + kAxis[a]);
@@ -1688,10 +1699,53 @@ LayerRegion read_layer(const Reader& reader, const YAML::Node& layer, const Case
   return r;
 }
 
+/// `analysis.layers`: the layer box of read_layer, the increasing positive `times` at which layer
+/// 1, 2, ... is measured (a time after time.end is not reached: a run shortened to try a case
+/// measures fewer layers, and its restart with the end raised measures the rest), and the
+/// `platform` the bed stands on (a boundary named so whose top is flat and level: a `blade` box
+/// that does not turn, or a plane facing +z).
+LayerSeries read_layer_series(const Reader& reader, const YAML::Node& layers, const Case& c,
+                              double radius_min) {
+  const std::string path = "analysis.layers";
+  LayerSeries series;
+  series.region = read_layer(reader, layers, c, radius_min, true);
+  const YAML::Node times = reader.require(layers, path, "times");
+  if (!times.IsSequence() || times.size() == 0) {
+    reader.fail(times, path + ".times", "expected a non-empty list of times [s]");
+  }
+  for (std::size_t k = 0; k < times.size(); ++k) {
+    const std::string at = Reader::join(path + ".times", k);
+    const double t = reader.positive(times[k], at);
+    if (!series.times.empty() && !(t > series.times.back())) {
+      reader.fail(times[k], at, "the times must increase");
+    }
+    series.times.push_back(t);
+  }
+  if (const YAML::Node platform = layers["platform"]) {
+    series.platform = reader.text(platform, path + ".platform");
+    const auto named = std::find_if(c.boundaries.begin(), c.boundaries.end(),
+                                    [&](const Boundary& b) { return b.name == series.platform; });
+    if (named == c.boundaries.end()) {
+      std::string names;
+      for (const Boundary& b : c.boundaries) names += (names.empty() ? "" : ", ") + b.name;
+      reader.fail(platform, path + ".platform",
+                  "no boundary is named '" + series.platform +
+                      "' (the boundaries: " + (names.empty() ? "none" : names) + ")");
+    }
+    if (!has_level_top(*named)) {
+      reader.fail(platform, path + ".platform",
+                  "'" + series.platform +
+                      "' has no flat level top: a platform is a blade box that does not turn or "
+                      "a plane whose normal is +z");
+    }
+  }
+  return series;
+}
+
 void read_analysis(const Reader& reader, const YAML::Node& root, Case& c) {
   if (const YAML::Node analysis = root["analysis"]) {
     reader.expect_map(analysis, "analysis");
-    reader.check_keys(analysis, "analysis", {"region", "layer"});
+    reader.check_keys(analysis, "analysis", {"region", "layer", "layers"});
     // Settings that could only fail after the last step are checked here, before step 0.
     static constexpr const char* kAxis[3] = {"x", "y", "z"};
     double radius_sum = 0.0;
@@ -1718,7 +1772,10 @@ void read_analysis(const Reader& reader, const YAML::Node& root, Case& c) {
       }
     }
     if (const YAML::Node layer = analysis["layer"]) {
-      c.layer = read_layer(reader, layer, c, radius_min);
+      c.layer = read_layer(reader, layer, c, radius_min, false);
+    }
+    if (const YAML::Node layers = analysis["layers"]) {
+      c.layers = read_layer_series(reader, layers, c, radius_min);
     }
   }
 }

@@ -180,10 +180,10 @@ bool is_vtk_series(const std::string& name) {
 /// True for the names of the files bondem's runs write (outputs, VTK series), and only those.
 bool is_run_output(const std::string& name) {
   for (const char* output : {"history.csv", "final_state.csv", "last_good_state.csv",
-                             "clusters.csv", "layer.csv", "checkpoint.bin"}) {
+                             "clusters.csv", "layer.csv", "layers.csv", "checkpoint.bin"}) {
     if (name == output) return true;
   }
-  return is_vtk_series(name) || state_file_index(name) >= 0;
+  return is_vtk_series(name) || state_file_index(name) >= 0 || layer_file_number(name) >= 0;
 }
 
 /// A run owns its output directory: remove what an earlier run left in it, so that every file
@@ -191,9 +191,12 @@ bool is_run_output(const std::string& name) {
 /// longer run (a SIGKILL during a write), and every output bondem writes (is_run_output()),
 /// except @p keep (the checkpoint a restart reads), when @p keep_vtk_series the VTK series (a
 /// restart trims it to the checkpoint's time itself), and the state snapshots up to index
-/// @p keep_states_through (-1: none). Files bondem does not write stay.
+/// @p keep_states_through (-1: none), and with @p keep_layers_through >= 0 layers.csv and the
+/// layer files up to that number (a restart trims layers.csv itself). Files bondem does not
+/// write stay.
 void remove_stale_outputs(const std::filesystem::path& directory, const std::filesystem::path& keep,
-                          bool keep_vtk_series, std::int64_t keep_states_through) {
+                          bool keep_vtk_series, std::int64_t keep_states_through,
+                          std::int64_t keep_layers_through) {
   namespace fs = std::filesystem;
   std::error_code error;
   std::vector<fs::path> stale;
@@ -221,6 +224,11 @@ void remove_stale_outputs(const std::filesystem::path& directory, const std::fil
     if (keep_vtk_series && is_vtk_series(name)) continue;
     if (const std::int64_t state = state_file_index(name);
         state >= 0 && state <= keep_states_through) {
+      continue;
+    }
+    if (keep_layers_through >= 0 &&
+        (name == "layers.csv" ||
+         (layer_file_number(name) >= 0 && layer_file_number(name) <= keep_layers_through))) {
       continue;
     }
     std::error_code not_same;  // keep may not exist: then nothing is kept
@@ -339,8 +347,16 @@ void prepare_output_directory(const Case& description, const RunOptions& options
   // A restart keeps the snapshots an uninterrupted run writes up to its checkpoint.
   const std::int64_t keep_states =
       plan.restarting && plan.state_every > 0 ? plan.first_step / plan.state_every : -1;
+  // And the layers measured up to it (LayerFiles::resume trims layers.csv to them).
+  std::int64_t keep_layers = -1;
+  if (plan.restarting && description.layers) {
+    keep_layers = 0;
+    for (const double t : description.layers->times) {
+      if (layer_step(t, description.time_step) <= plan.first_step) ++keep_layers;
+    }
+  }
   remove_stale_outputs(plan.directory, plan.restarting ? options.restart_path : "", keep_vtk_series,
-                       keep_states);
+                       keep_states, keep_layers);
 }
 
 /// The message of a blow-up report: @p e, the likely cause, and where the last good state is.
@@ -465,12 +481,17 @@ RunResult simulate(const Case& description, const RunOptions& options, const Run
   EndOfRunFiles end_files(plan.directory, analysis);
   std::optional<StateFiles> states;
   if (plan.state_every > 0) states.emplace(plan.directory, plan.state_every);
+  std::optional<LayerFiles> layers;
+  if (description.layers) {
+    layers.emplace(plan.directory, *description.layers, description.time_step);
+    if (plan.restarting) layers->resume(stepper.step_count());
+  }
 
   Simulation simulation(scene, stepper, plan.steps);
   simulation.stop_when(options.stop_requested);
   for (Observer* observer : std::initializer_list<Observer*>{
            &progress, &history, &last_good, vtk ? &*vtk : nullptr, states ? &*states : nullptr,
-           &checkpoint, &analysis, &end_files}) {
+           layers ? &*layers : nullptr, &checkpoint, &analysis, &end_files}) {
     if (observer != nullptr) simulation.attach(*observer);
   }
   const RunEnd end = simulation.run();

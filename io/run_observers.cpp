@@ -7,7 +7,9 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <numeric>
+#include <sstream>
 #include <stdexcept>
 #include <string_view>
 #include <system_error>
@@ -98,24 +100,48 @@ void write_final_state(const Particles& p, const std::vector<std::string>& mater
   file.commit();
 }
 
-std::string state_file_name(std::int64_t index) {
-  char digits[32];
-  std::snprintf(digits, sizeof digits, "%06lld", static_cast<long long>(index));
-  return std::string("state_") + digits + ".csv";
+namespace {
+
+/// `<prefix><index, zero-padded to digits>.csv`.
+std::string numbered_file_name(std::string_view prefix, int digits, std::int64_t index) {
+  char number[32];
+  std::snprintf(number, sizeof number, "%0*lld", digits, static_cast<long long>(index));
+  return std::string(prefix) + number + ".csv";
 }
 
-std::int64_t state_file_index(const std::string& name) {
-  constexpr std::string_view kPrefix = "state_", kSuffix = ".csv";
-  if (name.size() < kPrefix.size() + 6 + kSuffix.size() || name.rfind(kPrefix, 0) != 0 ||
+/// The index of a numbered_file_name() of @p prefix and @p digits, or -1 for another name.
+std::int64_t numbered_file_index(const std::string& name, std::string_view prefix, int digits) {
+  constexpr std::string_view kSuffix = ".csv";
+  if (name.size() < prefix.size() + static_cast<std::size_t>(digits) + kSuffix.size() ||
+      name.rfind(prefix, 0) != 0 ||
       name.compare(name.size() - kSuffix.size(), kSuffix.size(), kSuffix) != 0) {
     return -1;
   }
-  const std::string_view digits(name.data() + kPrefix.size(),
-                                name.size() - kPrefix.size() - kSuffix.size());
+  const std::string_view number(name.data() + prefix.size(),
+                                name.size() - prefix.size() - kSuffix.size());
   std::int64_t index = -1;
-  const auto [end, error] = std::from_chars(digits.data(), digits.data() + digits.size(), index);
-  if (error != std::errc() || end != digits.data() + digits.size() || index < 0) return -1;
-  return state_file_name(index) == name ? index : -1;
+  const auto [end, error] = std::from_chars(number.data(), number.data() + number.size(), index);
+  if (error != std::errc() || end != number.data() + number.size() || index < 0) return -1;
+  return numbered_file_name(prefix, digits, index) == name ? index : -1;
+}
+
+}  // namespace
+
+std::string state_file_name(std::int64_t index) {
+  return numbered_file_name("state_", 6, index);
+}
+
+std::int64_t state_file_index(const std::string& name) {
+  return numbered_file_index(name, "state_", 6);
+}
+
+std::string layer_file_name(std::int64_t number) {
+  return numbered_file_name("layer_", 3, number);
+}
+
+std::int64_t layer_file_number(const std::string& name) {
+  const std::int64_t number = numbered_file_index(name, "layer_", 3);
+  return number >= 1 ? number : -1;
 }
 
 HistoryFile::HistoryFile(std::string path)
@@ -213,9 +239,7 @@ VtkFrames::VtkFrames(const std::filesystem::path& directory, std::int64_t every,
 void VtkFrames::describe(const Scene& scene) {
   writer_.set_material_names(scene.material_names);
   // A bonds series where some pair of materials can bond.
-  writer_.set_bonds_series(
-      std::any_of(scene.pair_table.begin(), scene.pair_table.end(),
-                  [](const PairCoefficients& c) { return c.criterion != BondCriterion::kNever; }));
+  writer_.set_bonds_series(some_pair_can_bond(scene));
 }
 
 void VtkFrames::resume(const Scene& scene, std::int64_t checkpoint_step, double time_step) {
@@ -385,6 +409,70 @@ void StateFiles::write(const Simulation& simulation) const {
   write_final_state(simulation.scene().particles, simulation.scene().material_names,
                     (directory_ / state_file_name(simulation.step() / every_)).string(),
                     final_state_bonds(simulation));
+}
+
+LayerFiles::LayerFiles(std::filesystem::path directory, const LayerSeries& series, double time_step)
+    : directory_(std::move(directory)), series_(series) {
+  for (const double t : series.times) steps_.push_back(layer_step(t, time_step));
+}
+
+std::size_t LayerFiles::layers_through(std::int64_t step) const {
+  return static_cast<std::size_t>(std::upper_bound(steps_.begin(), steps_.end(), step) -
+                                  steps_.begin());
+}
+
+void LayerFiles::resume(std::int64_t checkpoint_step) {
+  next_ = layers_through(checkpoint_step);
+  const std::filesystem::path summary = directory_ / "layers.csv";
+  if (next_ == 0) {
+    std::error_code ignored;
+    std::filesystem::remove(summary, ignored);
+    return;
+  }
+  std::ifstream in(summary, std::ios::binary);
+  std::string line;
+  if (!std::getline(in, header_)) {
+    throw std::runtime_error(summary.string() + ": missing or empty; the checkpoint follows " +
+                             std::to_string(next_) + " measured layers, whose rows it must hold");
+  }
+  while (rows_.size() < next_ && std::getline(in, line)) rows_.push_back(line);
+  if (rows_.size() < next_) {
+    throw std::runtime_error(summary.string() + ": holds " + std::to_string(rows_.size()) +
+                             " layer rows; the checkpoint follows " + std::to_string(next_));
+  }
+  write_summary();  // without the rows of layers measured after the checkpoint
+}
+
+void LayerFiles::after_step(const Simulation& simulation) {
+  while (next_ < steps_.size() && steps_[next_] <= simulation.step()) {
+    const LayerSnapshot layer = measure_series_layer(series_, next_, simulation);
+    ++next_;
+    write_layer(layer.metrics, (directory_ / layer_file_name(layer.layer)).string());
+    const LayerMetrics& m = layer.metrics;
+    if (header_.empty()) {
+      header_ =
+          "layer,time,floor_z,base_z,particles,solid_fraction,mean_surface_height,roughness,"
+          "max_surface_height,empty_fraction,bed_height";
+      if (layer.agglomerates) header_ += ",agglomerates,largest_agglomerate";
+    }
+    std::ostringstream row;
+    row << layer.layer << ',' << exact_text(layer.time) << ',' << exact_text(layer.floor_z) << ','
+        << exact_text(layer.region.substrate_z) << ',' << m.particles << ','
+        << exact_text(m.solid_fraction) << ',' << exact_text(m.mean_surface_height) << ','
+        << exact_text(m.roughness) << ',' << exact_text(m.max_surface_height) << ','
+        << exact_text(m.empty_fraction) << ','
+        << exact_text(layer.region.substrate_z - layer.floor_z + m.mean_surface_height);
+    if (layer.agglomerates) row << ',' << *layer.agglomerates << ',' << *layer.largest_agglomerate;
+    rows_.push_back(row.str());
+    write_summary();
+  }
+}
+
+void LayerFiles::write_summary() const {
+  AtomicFile file((directory_ / "layers.csv").string());
+  file.stream() << header_ << '\n';
+  for (const std::string& row : rows_) file.stream() << row << '\n';
+  file.commit();
 }
 
 EndOfRunFiles::EndOfRunFiles(std::filesystem::path directory, const RunAnalysis& analysis)

@@ -3,6 +3,7 @@
 /// The observers of a run that write its files: history.csv, last_good_state.csv, the VTK series,
 /// checkpoint.bin and the end-of-run files.
 
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -116,6 +117,44 @@ class StateFiles : public Observer {
   void write(const Simulation& simulation) const;
   std::filesystem::path directory_;
   std::int64_t every_;
+};
+
+/// Name of the profile file of layer @p number (from 1) of analysis.layers: layer_001.csv.
+std::string layer_file_name(std::int64_t number);
+
+/// The layer number of a layer file's name, or -1 for another name.
+std::int64_t layer_file_number(const std::string& name);
+
+/// Step at which the layer measured at @p time is: the first at or after it, to the nearest step.
+inline std::int64_t layer_step(double time, double time_step) {
+  return std::llround(time / time_step);
+}
+
+/// The layers of `analysis.layers`, each measured at the first step at or after its time:
+/// layer_<n>.csv (solid fraction per bin, as layer.csv) and layers.csv (one summary row per layer,
+/// rewritten whole after each, so that it can be read while the run goes on).
+class LayerFiles : public Observer {
+ public:
+  /// @p series must outlive the observer.
+  LayerFiles(std::filesystem::path directory, const LayerSeries& series, double time_step);
+
+  /// Layers measured by the end of step @p step.
+  std::size_t layers_through(std::int64_t step) const;
+  /// Continue from the checkpoint at @p checkpoint_step: keep layers.csv's rows of the layers
+  /// measured up to it, drop the later ones (the layer files of those are rewritten when their
+  /// steps come). Throws std::runtime_error when layers.csv lacks the kept rows.
+  void resume(std::int64_t checkpoint_step);
+  void after_step(const Simulation& simulation) override;
+
+ private:
+  void write_summary() const;
+
+  std::filesystem::path directory_;
+  const LayerSeries& series_;
+  std::vector<std::int64_t> steps_;  ///< the step of each layer's measurement
+  std::size_t next_ = 0;             ///< layers measured so far
+  std::string header_;
+  std::vector<std::string> rows_;
 };
 
 /// checkpoint.bin (particles, stepper state, the history's text, the case fingerprint) every

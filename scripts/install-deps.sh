@@ -12,6 +12,9 @@ packages=(
   libgtest-dev libbenchmark-dev       # tests, microbenchmarks
   libhwy-dev                          # Google Highway: the SIMD pair pass, dispatched at run time
   gnuplot-nox                         # figures of the main job
+  # scripts/render-png.py: VTK's Python, and Xvfb as its off-screen X server (Debian's VTK 9.1
+  # draws through X11 only: no EGL or OSMesa) with Mesa's llvmpipe; DejaVu for the colour bar
+  python3-vtk9 xvfb xauth libgl1-mesa-dri fonts-dejavu-core
 )
 
 missing=()

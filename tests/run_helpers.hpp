@@ -6,7 +6,9 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "io/run.hpp"
 
@@ -48,6 +50,40 @@ inline RunResult quiet_run(const Case& c, const std::filesystem::path& directory
   options.stop_requested = stop;
   std::ostringstream log;
   return run_case(c, options, log);
+}
+
+/// A CSV file with a header line: its column names and its rows, as text fields.
+struct CsvTable {
+  std::vector<std::string> header;
+  std::vector<std::vector<std::string>> rows;
+
+  /// Index of column @p name; throws std::out_of_range when there is none.
+  std::size_t column(const std::string& name) const {
+    for (std::size_t k = 0; k < header.size(); ++k) {
+      if (header[k] == name) return k;
+    }
+    throw std::out_of_range("no column " + name);
+  }
+  /// Field @p name of row @p row as a number.
+  double number(std::size_t row, const std::string& name) const {
+    return std::stod(rows.at(row).at(column(name)));
+  }
+};
+
+/// The CSV file at @p path (fields split at commas; no quoting).
+inline CsvTable read_csv(const std::filesystem::path& path) {
+  std::istringstream in(file_bytes(path));
+  const auto fields = [](const std::string& line) {
+    std::vector<std::string> out;
+    std::istringstream row(line);
+    for (std::string field; std::getline(row, field, ',');) out.push_back(field);
+    return out;
+  };
+  CsvTable table;
+  std::string line;
+  if (std::getline(in, line)) table.header = fields(line);
+  while (std::getline(in, line)) table.rows.push_back(fields(line));
+  return table;
 }
 
 }  // namespace bondem::testing

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <stdexcept>
 #include <utility>
 
 namespace bondem {
@@ -18,6 +19,17 @@ std::vector<int> bond_counts(const Particles& p, const Stepper& stepper) {
 }
 
 namespace {
+
+/// Pairs of particle indices bonded in the stepper's last force evaluation.
+std::vector<std::pair<std::uint32_t, std::uint32_t>> bonded_pairs(const Stepper& stepper) {
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> bonded;
+  stepper.neighbors().for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
+    if (stepper.pair_forces().bonded[k] != 0) {
+      bonded.emplace_back(static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j));
+    }
+  });
+  return bonded;
+}
 
 /// Solid fraction and coordination in the case's region, or in the bed below its surface.
 void measure_packing(const Case& description, const Scene& scene, const Stepper& stepper,
@@ -37,12 +49,7 @@ void measure_packing(const Case& description, const Scene& scene, const Stepper&
 /// agglomerates are kept (a cluster per particle would stay in memory to the end of the run), and
 /// without a bonded pair there are none: every particle is a singleton.
 void measure_clusters(const Particles& p, const Stepper& stepper, RunFigures& figures) {
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> bonded;
-  stepper.neighbors().for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
-    if (stepper.pair_forces().bonded[k] != 0) {
-      bonded.emplace_back(static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(j));
-    }
-  });
+  const std::vector<std::pair<std::uint32_t, std::uint32_t>> bonded = bonded_pairs(stepper);
   ClusterReport& agglomerates = figures.clusters;
   figures.unbonded = p.size();
   if (!bonded.empty()) {
@@ -91,6 +98,64 @@ ThermalReport measure_heat(const Case& description, const Particles& p, const St
 }
 
 }  // namespace
+
+bool some_pair_can_bond(const Scene& scene) {
+  return std::any_of(
+      scene.pair_table.begin(), scene.pair_table.end(),
+      [](const PairCoefficients& c) { return c.criterion != BondCriterion::kNever; });
+}
+
+LayerSnapshot measure_series_layer(const LayerSeries& series, std::size_t index,
+                                   const Simulation& simulation) {
+  const Scene& scene = simulation.scene();
+  const Particles& p = scene.particles;
+  LayerSnapshot snapshot;
+  snapshot.layer = static_cast<int>(index) + 1;
+  snapshot.time = simulation.stepper().time();
+  snapshot.region = series.region;
+  snapshot.floor_z = series.region.substrate_z;
+  if (!series.platform.empty()) {
+    const auto platform =
+        std::find_if(scene.boundaries.begin(), scene.boundaries.end(),
+                     [&](const Boundary& b) { return b.name == series.platform; });
+    if (platform == scene.boundaries.end()) {
+      throw std::invalid_argument("analysis.layers: no boundary named " + series.platform);
+    }
+    snapshot.floor_z = level_top(*platform);
+    // The nominal top of the layers below: one layer height per layer spread before.
+    snapshot.region.substrate_z =
+        snapshot.floor_z + static_cast<double>(index) * series.region.layer_height;
+  }
+  snapshot.metrics = measure_layer(p, snapshot.region);
+  if (!some_pair_can_bond(scene)) return snapshot;
+
+  // Agglomerates reaching into the layer: a cluster counts when one of its particles' centres
+  // lies in the layer's box (bounds included).
+  const LayerRegion& box = snapshot.region;
+  const auto in_layer = [&](std::size_t i) {
+    return p.x[i] >= box.x_min && p.x[i] <= box.x_max && p.y[i] >= box.y_min &&
+           p.y[i] <= box.y_max && p.z[i] >= box.substrate_z &&
+           p.z[i] <= box.substrate_z + box.layer_height;
+  };
+  std::size_t agglomerates = 0, largest = 0;
+  const std::vector<std::pair<std::uint32_t, std::uint32_t>> bonded =
+      bonded_pairs(simulation.stepper());
+  if (!bonded.empty()) {
+    const ClusterReport clusters = find_clusters(p, bonded);
+    std::vector<char> reaches(clusters.sizes.size(), 0);
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      if (in_layer(i)) reaches[static_cast<std::size_t>(clusters.cluster_of[i])] = 1;
+    }
+    for (std::size_t k = 0; k < clusters.sizes.size(); ++k) {
+      if (reaches[k] == 0 || clusters.sizes[k] < 2) continue;
+      ++agglomerates;
+      largest = std::max(largest, clusters.sizes[k]);
+    }
+  }
+  snapshot.agglomerates = agglomerates;
+  snapshot.largest_agglomerate = largest;
+  return snapshot;
+}
 
 RunFigures analyse_run(const Case& description, const Simulation& simulation) {
   const Scene& scene = simulation.scene();

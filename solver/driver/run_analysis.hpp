@@ -41,6 +41,26 @@ struct RunFigures {
   std::optional<ThermalReport> thermal;  ///< thermal runs only
 };
 
+/// One layer of a LayerSeries, measured after its spread.
+struct LayerSnapshot {
+  int layer = 0;         ///< from 1
+  double time = 0.0;     ///< [s]
+  double floor_z = 0.0;  ///< the platform's top at that time, or the fixed substrate_z [m]
+  LayerRegion region;    ///< the layer's box: its substrate_z is the layer's base
+  LayerMetrics metrics;
+  /// Agglomerates (two or more bonded particles) with a particle centre inside the layer's box,
+  /// and the particles in the largest of them; absent when no pair of materials can bond.
+  std::optional<std::size_t> agglomerates, largest_agglomerate;
+};
+
+/// Whether some pair of materials of @p scene has a bond criterion other than `never`.
+bool some_pair_can_bond(const Scene& scene);
+
+/// Layer @p index (0-based; the layer numbered index + 1) of @p series, measured in the state of
+/// @p simulation.
+LayerSnapshot measure_series_layer(const LayerSeries& series, std::size_t index,
+                                   const Simulation& simulation);
+
 /// Bonds per particle in the stepper's last force evaluation.
 std::vector<int> bond_counts(const Particles& p, const Stepper& stepper);
 

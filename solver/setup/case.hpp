@@ -126,6 +126,16 @@ struct StreamInsertion {
   std::size_t max_attempts = 100;  ///< random centres tried per particle and step
 };
 
+/// Layers measured during a run, one per time (`analysis.layers`): layer n (from 1) at times[n-1]
+/// in the box of region from z = base to base + region.layer_height, where base is
+/// region.substrate_z, or with a platform its top at that time plus (n - 1) layer heights (the
+/// nominal top of the layers below, on a platform lowered by one layer height per layer).
+struct LayerSeries {
+  std::vector<double> times;  ///< increasing, > 0; those after time.end are not reached [s]
+  LayerRegion region;         ///< footprint, layer height, bins, grid; substrate_z without platform
+  std::string platform;       ///< name of the boundary the bed stands on; empty: fixed substrate_z
+};
+
 /// Everything a run needs, validated: the output of the case-file reader.
 struct Case {
   std::string source;  ///< file the case came from, for messages
@@ -165,6 +175,8 @@ struct Case {
   std::optional<Box> analysis_region;
   /// Spread layer to measure at the end (solid fraction profile, roughness, bare substrate).
   std::optional<LayerRegion> layer;
+  /// Layers to measure during the run, one after each spread (`analysis.layers`).
+  std::optional<LayerSeries> layers;
   /// Every value the case-file reader read, by dotted key ("materials.steel.density",
   /// "walls.0.motion.1.velocity.2"), as it resolved it (numbers in their shortest exact form),
   /// and "{}" for every mapping it entered: sorted, so it is a canonical text of the file. It
