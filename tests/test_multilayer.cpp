@@ -22,7 +22,7 @@ namespace fs = std::filesystem;
 constexpr double kDensity = 4430.0;                   // ti64, the only powder of the case
 constexpr double kLayerHeight = 200e-6;               // the platform's step [m]
 constexpr double kPitMin = 0.6e-3, kPitMax = 1.2e-3;  // the platform's extent along x [m]
-constexpr double kBladeEdge = 125e-6;                 // the blade's bottom edge above the floor
+constexpr double kBladeEdge = 250e-6;                 // the blade's bottom edge above the floor
 
 struct MultilayerRun {
   Case c;
@@ -50,9 +50,9 @@ TEST(Multilayer, EveryParticleInsertedIsInTheBedElsewhereOrRemoved) {
   const std::size_t last = history.rows.size() - 1;
   const double inserted = history.number(last, "inserted");
   const double removed = history.number(last, "removed");
-  // Both doses came in whole (33 000/s for 6 ms each), and the blade pushed what the pit could
+  // Both doses came in whole (50 000/s for 6 ms each), and the blade pushed what the pit could
   // not hold over its far edge, out of the domain.
-  EXPECT_EQ(inserted, 2.0 * 198.0);
+  EXPECT_EQ(inserted, 2.0 * 300.0);
   EXPECT_GT(removed, 100.0);
 
   // final_state.csv: the bed is what lies over the platform below the blade's edge; the rest is
@@ -97,21 +97,22 @@ TEST(Multilayer, TheBedRisesByAboutOnePlatformStepPerLayer) {
     const testing::CsvTable profile = testing::read_csv(run.directory / layer_file_name(n));
     EXPECT_EQ(profile.rows.size(), 4u) << n;  // bins: 4
   }
-  // The platform's top: one layer below the blade's edge for layer 1, one step lower for layer 2
-  // (to one step's travel at 25 mm/s, 2.5 nm: its keys fall between steps).
-  EXPECT_NEAR(layers.number(0, "floor_z"), kBladeEdge - kLayerHeight, 1e-12);
-  EXPECT_NEAR(layers.number(1, "floor_z"), kBladeEdge - 2.0 * kLayerHeight, 5e-9);
+  // The platform's top: flush with the floor for layer 1, one step lower for layer 2 (to one
+  // step's travel at 25 mm/s, 2.5 nm: its keys fall between steps).
+  EXPECT_EQ(layers.number(0, "floor_z"), 0.0);
+  EXPECT_NEAR(layers.number(1, "floor_z"), -kLayerHeight, 5e-9);
   EXPECT_NEAR(layers.number(1, "base_z"), layers.number(1, "floor_z") + kLayerHeight, 1e-12);
 
   // bed_height: the mean top surface above the platform. The blade leaves the surface at a level
-  // set by its edge, so once the first layer has covered the platform each spread adds about one
-  // platform step. Tolerance 0.2 step = 40 um, five times the scatter of a mean surface over this
-  // footprint (roughness ~40 um over ~35 patches of one D50).
+  // set by its edge, so each spread raises the bed over the platform by about one platform step.
+  // The first layer, spread onto the bare plate, lies lower under the edge than the next one on
+  // powder (the full case: rises of 1.13 and 1.03 steps for layers 2 and 3); that difference is
+  // within 0.3 step (60 um, 0.8 D50) here.
   const double first = layers.number(0, "bed_height");
   const double second = layers.number(1, "bed_height");
   EXPECT_GT(first, 0.3 * kLayerHeight);  // a layer, not a bare platform
-  EXPECT_LT(first, 1.1 * kLayerHeight);  // and never above the blade's edge
-  EXPECT_NEAR(second - first, kLayerHeight, 0.2 * kLayerHeight);
+  EXPECT_LT(first, kBladeEdge);          // and below the blade's edge
+  EXPECT_NEAR(second - first, kLayerHeight, 0.3 * kLayerHeight);
   for (std::size_t n = 0; n < 2; ++n) {
     // Spread layers of this powder at 2 D90: loose (0.2-0.64) and mostly covered.
     EXPECT_GT(layers.number(n, "solid_fraction"), 0.2) << n;
