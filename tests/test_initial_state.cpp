@@ -101,7 +101,12 @@ std::pair<double, double> energies(const fs::path& history, int row) {
 TEST(InitialState, FromACheckpointTheParticlesTheirSpinsAndTheirSpringsCarryOver) {
   const fs::path checkpoint = stage_one() / "checkpoint.bin";
   const Checkpoint saved = read_checkpoint(checkpoint.string());
-  const Case c = parse_case(stage_two(checkpoint, "unused"), "stage_two.yaml");
+  // With the first stage's friction: a pair sliding at the Coulomb limit stays at the same limit
+  // (a higher friction raises the spring of a pair still sliding to the new limit, by design).
+  const std::string same_materials =
+      "  powder: {density: 2500, youngs_modulus: 5.0e6, poisson_ratio: 0.3}\n"
+      "  wall: {density: 7800, youngs_modulus: 5.0e6, poisson_ratio: 0.3}\n";
+  const Case c = parse_case(stage_two(checkpoint, "unused", same_materials, 0.3), "stage_two.yaml");
   ASSERT_EQ(c.particles.size(), saved.particles.size());
   // Pairs with a loaded spring were in contact at the checkpoint: the case takes them all.
   ASSERT_GT(saved.stepper.slips.size(), 10u);
@@ -125,22 +130,27 @@ TEST(InitialState, FromACheckpointTheParticlesTheirSpinsAndTheirSpringsCarryOver
     return by_ids;
   };
   const auto carried = springs(c);
-  const auto fresh =
-      springs(parse_case(stage_two(stage_one() / "final_state.csv", "unused"), "csv.yaml"));
-  double carried_change = 0.0, fresh_change = 0.0;
-  std::size_t found = 0;
+  const auto fresh = springs(parse_case(
+      stage_two(stage_one() / "final_state.csv", "unused", same_materials, 0.3), "csv.yaml"));
+  std::vector<double> carried_change, fresh_change;
   for (const SlipRecord& s : saved.stepper.slips) {
     const Eigen::Vector3d before(s.sx, s.sy, s.sz);
     const auto it = carried.find({s.first_id, s.second_id});
     if (it == carried.end()) continue;
-    ++found;
-    carried_change += (it->second - before).norm();
+    carried_change.push_back((it->second - before).norm() / before.norm());
     const auto again = fresh.find({s.first_id, s.second_id});
-    fresh_change += again == fresh.end() ? before.norm() : (again->second - before).norm();
+    fresh_change.push_back(again == fresh.end() ? 1.0
+                                                : (again->second - before).norm() / before.norm());
   }
   // A spring is kept while its pair is within the list's reach, as on any rebuild: all are.
-  EXPECT_EQ(found, saved.stepper.slips.size());
-  EXPECT_LT(carried_change, 0.5 * fresh_change);
+  EXPECT_EQ(carried_change.size(), saved.stepper.slips.size());
+  // Relative to the saved spring, by the median over pairs: a carried spring moves by one step of
+  // sliding (measured: 0.5 %), a fresh one starts from zero (100 %).
+  const auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  EXPECT_LT(median(carried_change), 0.1 * median(fresh_change));
   Scene scene = build_scene(c);
 
   // Ids, positions, velocities and spins are the checkpoint's, exactly.
