@@ -348,13 +348,11 @@ void prepare_output_directory(const Case& description, const RunOptions& options
   const std::int64_t keep_states =
       plan.restarting && plan.state_every > 0 ? plan.first_step / plan.state_every : -1;
   // And the layers measured up to it (LayerFiles::resume trims layers.csv to them).
-  std::int64_t keep_layers = -1;
-  if (plan.restarting && description.layers) {
-    keep_layers = 0;
-    for (const double t : description.layers->times) {
-      if (layer_step(t, description.time_step) <= plan.first_step) ++keep_layers;
-    }
-  }
+  const std::int64_t keep_layers =
+      plan.restarting && description.layers
+          ? static_cast<std::int64_t>(
+                layers_through(*description.layers, description.time_step, plan.first_step))
+          : -1;
   remove_stale_outputs(plan.directory, plan.restarting ? options.restart_path : "", keep_vtk_series,
                        keep_states, keep_layers);
 }

@@ -412,17 +412,10 @@ void StateFiles::write(const Simulation& simulation) const {
 }
 
 LayerFiles::LayerFiles(std::filesystem::path directory, const LayerSeries& series, double time_step)
-    : directory_(std::move(directory)), series_(series) {
-  for (const double t : series.times) steps_.push_back(layer_step(t, time_step));
-}
-
-std::size_t LayerFiles::layers_through(std::int64_t step) const {
-  return static_cast<std::size_t>(std::upper_bound(steps_.begin(), steps_.end(), step) -
-                                  steps_.begin());
-}
+    : directory_(std::move(directory)), series_(series), time_step_(time_step) {}
 
 void LayerFiles::resume(std::int64_t checkpoint_step) {
-  next_ = layers_through(checkpoint_step);
+  next_ = layers_through(series_, time_step_, checkpoint_step);
   const std::filesystem::path summary = directory_ / "layers.csv";
   if (next_ == 0) {
     std::error_code ignored;
@@ -444,7 +437,8 @@ void LayerFiles::resume(std::int64_t checkpoint_step) {
 }
 
 void LayerFiles::after_step(const Simulation& simulation) {
-  while (next_ < steps_.size() && steps_[next_] <= simulation.step()) {
+  while (next_ < series_.times.size() &&
+         layer_step(series_.times[next_], time_step_) <= simulation.step()) {
     const LayerSnapshot layer = measure_series_layer(series_, next_, simulation);
     ++next_;
     write_layer(layer.metrics, (directory_ / layer_file_name(layer.layer)).string());

@@ -3,6 +3,7 @@
 /// The observers of a run that write its files: history.csv, last_good_state.csv, the VTK series,
 /// checkpoint.bin and the end-of-run files.
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -130,6 +131,13 @@ inline std::int64_t layer_step(double time, double time_step) {
   return std::llround(time / time_step);
 }
 
+/// Layers of @p series measured by the end of step @p step, at time step @p time_step.
+inline std::size_t layers_through(const LayerSeries& series, double time_step, std::int64_t step) {
+  return static_cast<std::size_t>(
+      std::count_if(series.times.begin(), series.times.end(),
+                    [&](double t) { return layer_step(t, time_step) <= step; }));
+}
+
 /// The layers of `analysis.layers`, each measured at the first step at or after its time:
 /// layer_<n>.csv (solid fraction per bin, as layer.csv) and layers.csv (one summary row per layer,
 /// rewritten whole after each, so that it can be read while the run goes on).
@@ -138,8 +146,6 @@ class LayerFiles : public Observer {
   /// @p series must outlive the observer.
   LayerFiles(std::filesystem::path directory, const LayerSeries& series, double time_step);
 
-  /// Layers measured by the end of step @p step.
-  std::size_t layers_through(std::int64_t step) const;
   /// Continue from the checkpoint at @p checkpoint_step: keep layers.csv's rows of the layers
   /// measured up to it, drop the later ones (the layer files of those are rewritten when their
   /// steps come). Throws std::runtime_error when layers.csv lacks the kept rows.
@@ -151,8 +157,8 @@ class LayerFiles : public Observer {
 
   std::filesystem::path directory_;
   const LayerSeries& series_;
-  std::vector<std::int64_t> steps_;  ///< the step of each layer's measurement
-  std::size_t next_ = 0;             ///< layers measured so far
+  double time_step_;
+  std::size_t next_ = 0;  ///< layers measured so far
   std::string header_;
   std::vector<std::string> rows_;
 };
