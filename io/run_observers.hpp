@@ -126,7 +126,7 @@ std::string layer_file_name(std::int64_t number);
 /// The layer number of a layer file's name, or -1 for another name.
 std::int64_t layer_file_number(const std::string& name);
 
-/// Step at which the layer measured at @p time is: the first at or after it, to the nearest step.
+/// The step the layer of @p time is measured at: the one nearest to it.
 inline std::int64_t layer_step(double time, double time_step) {
   return std::llround(time / time_step);
 }
@@ -138,7 +138,7 @@ inline std::size_t layers_through(const LayerSeries& series, double time_step, s
                     [&](double t) { return layer_step(t, time_step) <= step; }));
 }
 
-/// The layers of `analysis.layers`, each measured at the first step at or after its time:
+/// The layers of `analysis.layers`, each measured at the step nearest its time:
 /// layer_<n>.csv (solid fraction per bin, as layer.csv) and layers.csv (one summary row per layer,
 /// rewritten whole after each, so that it can be read while the run goes on).
 class LayerFiles : public Observer {
