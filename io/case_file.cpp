@@ -1722,22 +1722,23 @@ LayerSeries read_layer_series(const Reader& reader, const YAML::Node& layers, co
     series.times.push_back(t);
   }
   if (const YAML::Node platform = layers["platform"]) {
-    series.platform = reader.text(platform, path + ".platform");
+    const std::string name = reader.text(platform, path + ".platform");
     const auto named = std::find_if(c.boundaries.begin(), c.boundaries.end(),
-                                    [&](const Boundary& b) { return b.name == series.platform; });
+                                    [&](const Boundary& b) { return b.name == name; });
     if (named == c.boundaries.end()) {
       std::string names;
       for (const Boundary& b : c.boundaries) names += (names.empty() ? "" : ", ") + b.name;
       reader.fail(platform, path + ".platform",
-                  "no boundary is named '" + series.platform +
+                  "no boundary is named '" + name +
                       "' (the boundaries: " + (names.empty() ? "none" : names) + ")");
     }
     if (!has_level_top(*named)) {
       reader.fail(platform, path + ".platform",
-                  "'" + series.platform +
+                  "'" + name +
                       "' has no flat level top: a platform is a blade box that does not turn or "
                       "a plane whose normal is +z");
     }
+    series.platform = static_cast<int>(named - c.boundaries.begin());
   }
   return series;
 }

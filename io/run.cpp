@@ -226,9 +226,9 @@ void remove_stale_outputs(const std::filesystem::path& directory, const std::fil
         state >= 0 && state <= keep_states_through) {
       continue;
     }
-    if (keep_layers_through >= 0 &&
-        (name == "layers.csv" ||
-         (layer_file_number(name) >= 0 && layer_file_number(name) <= keep_layers_through))) {
+    if (const std::int64_t layer = layer_file_number(name);
+        keep_layers_through >= 0 &&
+        (name == "layers.csv" || (layer >= 0 && layer <= keep_layers_through))) {
       continue;
     }
     std::error_code not_same;  // keep may not exist: then nothing is kept

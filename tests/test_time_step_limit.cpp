@@ -6,8 +6,8 @@
 #include <complex>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <limits>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -156,10 +156,10 @@ TEST(CaseLimit, ShippedCasesAndPaperFiguresPassTheirLimit) {
                        << "1,0.003,0.0005,0.0005,0,0,0,6.0e-5,ti64\n";
   for (const auto& entry : std::filesystem::recursive_directory_iterator(BONDEM_CASES_DIR)) {
     if (entry.path().extension() != ".yaml") continue;
-    std::ifstream in(entry.path());
-    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ostringstream text;
+    text << std::ifstream(entry.path()).rdbuf();
     std::vector<std::string> overrides;
-    if (text.find("\ninitial_state:") != std::string::npos) {
+    if (text.str().find("\ninitial_state:") != std::string::npos) {
       overrides.push_back("initial_state.file=" + state.string());
     }
     const Case c = load_case(entry.path().string(), overrides);

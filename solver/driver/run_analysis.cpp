@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cstdint>
-#include <stdexcept>
 #include <utility>
 
 namespace bondem {
@@ -114,14 +113,8 @@ LayerSnapshot measure_series_layer(const LayerSeries& series, std::size_t index,
   snapshot.time = simulation.stepper().time();
   snapshot.region = series.region;
   snapshot.floor_z = series.region.substrate_z;
-  if (!series.platform.empty()) {
-    const auto platform =
-        std::find_if(scene.boundaries.begin(), scene.boundaries.end(),
-                     [&](const Boundary& b) { return b.name == series.platform; });
-    if (platform == scene.boundaries.end()) {
-      throw std::invalid_argument("analysis.layers: no boundary named " + series.platform);
-    }
-    snapshot.floor_z = level_top(*platform);
+  if (series.platform >= 0) {
+    snapshot.floor_z = level_top(scene.boundaries.at(static_cast<std::size_t>(series.platform)));
     // The nominal top of the layers below: one layer height per layer spread before.
     snapshot.region.substrate_z =
         snapshot.floor_z + static_cast<double>(index) * series.region.layer_height;

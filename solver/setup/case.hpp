@@ -133,7 +133,9 @@ struct StreamInsertion {
 struct LayerSeries {
   std::vector<double> times;  ///< increasing, > 0; those after time.end are not reached [s]
   LayerRegion region;         ///< footprint, layer height, bins, grid; substrate_z without platform
-  std::string platform;       ///< name of the boundary the bed stands on; empty: fixed substrate_z
+  /// Index into the case's boundaries (and the scene's, in the same order) of the one the bed
+  /// stands on; -1: the fixed substrate_z.
+  int platform = -1;
 };
 
 /// Everything a run needs, validated: the output of the case-file reader.
