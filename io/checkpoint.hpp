@@ -24,7 +24,7 @@ class CheckpointError : public std::runtime_error {
 };
 
 /// Format version written into every checkpoint; readers refuse any other.
-inline constexpr std::uint32_t kCheckpointVersion = 7;
+inline constexpr std::uint32_t kCheckpointVersion = 8;
 
 /// Where a checkpointed particle field sits in the file: per-particle arrays right after the
 /// particle count, per-wall arrays after the wall count, thermal arrays after the thermal flag,
@@ -120,12 +120,14 @@ struct Checkpoint {
 /// change: the end time and the output settings.
 std::string canonical_case_text(const Case& description);
 
-/// FNV-1a hash of canonical_case_text(): equal for a case and its continuation to a later end
-/// time or with other outputs, different when anything that shapes the trajectory differs.
+/// FNV-1a hash of canonical_case_text(), with the particles' lines hashed per block of 4096
+/// particles (in parallel) and the block hashes folded in order: equal for a case and its
+/// continuation to a later end time or with other outputs, different when anything that shapes
+/// the trajectory differs.
 std::uint64_t case_fingerprint(const Case& description);
 
 /// Write atomically (temporary file, then rename): magic, version, payload size, payload,
-/// FNV-1a checksum. Throws std::runtime_error on I/O failure.
+/// checksum (FNV-1a by 64-bit words). Throws std::runtime_error on I/O failure.
 void write_checkpoint(const std::string& path, const Checkpoint& checkpoint);
 
 /// Calls its argument once with every pair's carried state, in the same order at every call.

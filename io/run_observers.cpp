@@ -82,7 +82,9 @@ void write_final_state(const Particles& p, const std::vector<std::string>& mater
   constexpr std::size_t kBlockRows = 16384;
   const std::size_t rows = order.size();
   const auto threads = static_cast<std::size_t>(threads_in_use(rows));
-  std::vector<std::vector<char>> text(threads, std::vector<char>(kBlockRows * row_chars));
+  // No more room than the rows need: a block's buffer is megabytes, zeroed page by page.
+  std::vector<std::vector<char>> text(threads,
+                                      std::vector<char>(std::min(rows, kBlockRows) * row_chars));
   std::vector<std::size_t> length(threads, 0);
   for (std::size_t first = 0; first < rows; first += threads * kBlockRows) {
 #pragma omp parallel for schedule(static) num_threads(static_cast <int>(threads)) if (threads > 1)

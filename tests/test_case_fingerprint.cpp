@@ -2,6 +2,7 @@
 // Whatever shapes the trajectory changes it; the end time and the outputs do not (a restart may
 // continue a run further, with other outputs).
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <charconv>
 #include <cstdint>
@@ -196,6 +197,36 @@ TEST(CaseFingerprint, CanonicalTextListsEveryParticleExactly) {
   EXPECT_NE(text.find("file.walls.1.type=roller\n"), std::string::npos) << text;
   EXPECT_EQ(text.find("output"), std::string::npos) << text;
   EXPECT_EQ(text.find("time.end"), std::string::npos) << text;
+}
+
+// The particles' lines are hashed in blocks of 4096 on every thread: the value must not depend on
+// the threads, and a particle in any block, the last one of a partial block included, counts.
+TEST(CaseFingerprint, ManyParticlesHashTheSameOnAnyThreadCountAndEachCounts) {
+  Case c = roller();
+  const ParticleSpec first = c.particles.front();
+  c.particles.clear();
+  for (int k = 0; k < 10000; ++k) {  // two whole blocks and a partial one
+    ParticleSpec p = first;
+    p.position.x() = 1e-4 + 1e-6 * k;
+    p.id = k;
+    c.particles.push_back(p);
+  }
+  const int threads = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const std::uint64_t one_thread = case_fingerprint(c);
+  omp_set_num_threads(2);
+  const std::uint64_t two_threads = case_fingerprint(c);
+  omp_set_num_threads(threads);
+  EXPECT_EQ(one_thread, two_threads);
+  for (const std::size_t k :
+       {std::size_t{0}, std::size_t{4095}, std::size_t{4096}, std::size_t{9999}}) {
+    Case changed = c;
+    changed.particles[k].velocity.z() = 1e-9;
+    EXPECT_NE(case_fingerprint(changed), one_thread) << "particle " << k;
+  }
+  Case swapped = c;  // the same particles in another order are another case (ids by place)
+  std::swap(swapped.particles[10].position, swapped.particles[5000].position);
+  EXPECT_NE(case_fingerprint(swapped), one_thread);
 }
 
 }  // namespace
