@@ -120,10 +120,10 @@ struct Checkpoint {
 /// change: the end time and the output settings.
 std::string canonical_case_text(const Case& description);
 
-/// FNV-1a hash of canonical_case_text(), with the particles' lines hashed per block of 4096
-/// particles (in parallel) and the block hashes folded in order: equal for a case and its
-/// continuation to a later end time or with other outputs, different when anything that shapes
-/// the trajectory differs.
+/// FNV-1a hash of canonical_case_text(), except that the particles' lines are hashed by their
+/// values' bytes, per block of 4096 particles (in parallel), the block hashes folded in order:
+/// equal for a case and its continuation to a later end time or with other outputs, different
+/// when anything that shapes the trajectory differs.
 std::uint64_t case_fingerprint(const Case& description);
 
 /// Write atomically (temporary file, then rename): magic, version, payload size, payload,

@@ -64,15 +64,20 @@ struct PairForces {
   StaggeredVector<double> roll_x, roll_y, roll_z;  ///< rolling torque on i (rolling resistance)
   StaggeredVector<double> heat;                    ///< heat flow into i [W] (thermal runs)
   StaggeredVector<double> conductance;             ///< contact conductance H [W/K] (thermal runs)
+  /// Slots for @p pairs pairs. The bond flags keep their values (carry_pairs fills them first);
+  /// the other slots are written by every pass 1, so a new size starts them at zero (in parallel).
   void resize(std::size_t pairs, bool torques, bool rolling, bool thermal) {
-    for (StaggeredVector<double>* f : {&fx, &fy, &fz}) f->resize(pairs);
+    const auto size = [](StaggeredVector<double>& slots, std::size_t count) {
+      if (slots.size() != count) assign_zeros(slots, count);
+    };
+    for (StaggeredVector<double>* f : {&fx, &fy, &fz}) size(*f, pairs);
     bonded.resize(pairs);
-    for (StaggeredVector<double>* t : {&cx, &cy, &cz, &overlap}) t->resize(torques ? pairs : 0);
+    for (StaggeredVector<double>* t : {&cx, &cy, &cz, &overlap}) size(*t, torques ? pairs : 0);
     for (StaggeredVector<double>* t : {&roll_x, &roll_y, &roll_z}) {
-      t->resize(torques && rolling ? pairs : 0);
+      size(*t, torques && rolling ? pairs : 0);
     }
-    heat.resize(thermal ? pairs : 0);
-    conductance.resize(thermal ? pairs : 0);
+    size(heat, thermal ? pairs : 0);
+    size(conductance, thermal ? pairs : 0);
   }
 };
 
@@ -85,9 +90,11 @@ struct PairHistory {
   StaggeredVector<double> rx, ry, rz;    ///< EPSD rolling spring torque [N m]
   StaggeredVector<std::uint8_t> joined;  ///< 1 while a JKR contact holds the pair
   void resize(std::size_t pairs, bool springs, bool contact_history) {
-    for (StaggeredVector<double>* s : {&sx, &sy, &sz}) s->assign(springs ? pairs : 0, 0.0);
-    for (StaggeredVector<double>* r : {&rx, &ry, &rz}) r->assign(contact_history ? pairs : 0, 0.0);
-    joined.assign(contact_history ? pairs : 0, 0);
+    for (StaggeredVector<double>* s : {&sx, &sy, &sz}) assign_zeros(*s, springs ? pairs : 0);
+    for (StaggeredVector<double>* r : {&rx, &ry, &rz}) {
+      assign_zeros(*r, contact_history ? pairs : 0);
+    }
+    assign_zeros(joined, contact_history ? pairs : 0);
   }
 };
 

@@ -205,7 +205,7 @@ void Stepper::carry_pairs(CarriedPairs carried) {
   const std::size_t pairs = list_.pair_count();
   const bool extended = scene_.particles.contact_history;
   history_.resize(pairs, scene_.friction, extended);
-  pair_forces_.bonded.assign(pairs, std::uint8_t{0});
+  assign_zeros(pair_forces_.bonded, pairs);
   std::vector<CarriedPairs::Key>& keys = carried.keys;
   if (!keys.empty()) {
     // Key each pair by its ids, smaller first; the springs belong to the first particle's side,
