@@ -8,8 +8,6 @@
 /// than with the arrays at distinct offsets. Smaller buffers come from malloc's heap, where their
 /// sizes already spread their offsets. Addresses never reach a result.
 
-#include <sys/mman.h>
-
 #include <algorithm>
 #include <atomic>
 #include <cstddef>
@@ -40,17 +38,6 @@ inline std::size_t next_stagger_slot() {
   return counter.fetch_add(1, std::memory_order_relaxed) % kStaggerSlots;
 }
 
-/// Asks the kernel to back the whole 2 MiB pages of [@p begin, @p begin + @p bytes) with huge pages
-/// (transparent huge pages in "madvise" mode, the Debian default). Advice only: nothing fails.
-inline void advise_huge_pages(void* begin, std::size_t bytes) {
-  constexpr std::uintptr_t kHugePage = std::uintptr_t{2} << 20;
-  const std::uintptr_t first =
-      (reinterpret_cast<std::uintptr_t>(begin) + kHugePage - 1) / kHugePage * kHugePage;
-  const std::uintptr_t last =
-      (reinterpret_cast<std::uintptr_t>(begin) + bytes) / kHugePage * kHugePage;
-  if (last > first) madvise(reinterpret_cast<void*>(first), last - first, MADV_HUGEPAGE);
-}
-
 /// Allocator of StaggeredVector: large buffers get a 64-B aligned start at the next slot's offset
 /// and keep malloc's own pointer just before it, for deallocate.
 template <class T>
@@ -73,7 +60,6 @@ struct StaggeredAllocator {
     if (bytes > static_cast<std::size_t>(PTRDIFF_MAX) - kPadding) throw std::bad_array_new_length();
     void* raw = std::malloc(bytes + kPadding);
     if (raw == nullptr) throw std::bad_alloc();
-    advise_huge_pages(raw, bytes + kPadding);
     const std::uintptr_t first = reinterpret_cast<std::uintptr_t>(raw) + sizeof(void*);
     const std::uintptr_t aligned = (first + kStaggerStep - 1) / kStaggerStep * kStaggerStep;
     const std::uintptr_t start = aligned + next_stagger_slot() * kStaggerStep;
