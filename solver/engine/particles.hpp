@@ -105,6 +105,10 @@ struct Particles {
   /// vector grown by doubling holds up to twice its particles, and moves them at every growth.
   void reserve(std::size_t count);
 
+  /// @p count particles of zeros in every field in use, as @p count add()s of zeros would leave
+  /// them, the pages cleared on every thread (assign_zeros); for a set that then fills them.
+  void assign_zeros(std::size_t count);
+
   /// Reorder every field marked kReordered so that new index k holds old particle order[k]; an
   /// order shorter than size() drops the particles it leaves out.
   void permute(const std::vector<std::uint32_t>& order);
@@ -276,6 +280,14 @@ inline void Particles::reserve(std::size_t count) {
     if (!in_use(field, *this)) continue;
     const std::size_t values = count * values_per_particle(field, *this);
     std::visit([&](auto member) { (this->*member).reserve(values); }, field.member);
+  }
+}
+
+inline void Particles::assign_zeros(std::size_t count) {
+  for (const ParticleField& field : kParticleFields) {
+    if (!in_use(field, *this)) continue;
+    const std::size_t values = count * values_per_particle(field, *this);
+    std::visit([&](auto member) { bondem::assign_zeros(this->*member, values); }, field.member);
   }
 }
 
