@@ -101,10 +101,6 @@ struct Particles {
   std::size_t add(std::int64_t particle_id, std::int32_t material_index, double particle_radius,
                   double particle_mass, const double position[3], const double velocity[3]);
 
-  /// Room for @p count particles in every field in use, so that add() does not reallocate: a
-  /// vector grown by doubling holds up to twice its particles, and moves them at every growth.
-  void reserve(std::size_t count);
-
   /// @p count particles of zeros in every field in use, as @p count add()s of zeros would leave
   /// them, the pages cleared on every thread (assign_zeros); for a set that then fills them.
   void assign_zeros(std::size_t count);
@@ -273,14 +269,6 @@ inline std::size_t Particles::add(std::int64_t particle_id, std::int32_t materia
   radius[index] = particle_radius;
   mass[index] = particle_mass;
   return index;
-}
-
-inline void Particles::reserve(std::size_t count) {
-  for (const ParticleField& field : kParticleFields) {
-    if (!in_use(field, *this)) continue;
-    const std::size_t values = count * values_per_particle(field, *this);
-    std::visit([&](auto member) { (this->*member).reserve(values); }, field.member);
-  }
 }
 
 inline void Particles::assign_zeros(std::size_t count) {
