@@ -112,6 +112,10 @@ class NeighborList {
   /// Image code of pair k: separation() adds shift_table()[image(k)].
   std::uint8_t image(std::uint32_t k) const { return image_[k]; }
 
+  /// Every pair's second particle and image code, in pair order (kernels that walk the list).
+  const std::uint32_t* seconds() const { return second_.data(); }
+  const std::uint8_t* images() const { return image_.data(); }  ///< see seconds()
+
   /// The periodic shifts by image code.
   const std::array<Eigen::Vector3d, 27>& shift_table() const { return shifts_; }
 
@@ -170,10 +174,7 @@ class NeighborList {
   std::vector<std::uint32_t> cell_of_;     ///< cell of each particle
   std::vector<std::uint32_t> cell_begin_;  ///< size cells + 1
   std::vector<std::uint32_t> cell_items_;  ///< particles sorted by cell, by index within a cell
-  std::vector<std::uint32_t> cursor_, row_count_;
-  std::vector<std::vector<std::uint32_t>> local_second_;
-  std::vector<std::vector<std::uint8_t>> local_image_;
-  std::vector<std::size_t> local_first_;
+  std::vector<std::uint32_t> cursor_;
 };
 
 }  // namespace bondem

@@ -58,6 +58,12 @@ struct PairBlock {
   HWY_ALIGN double dvx[kLaneBlock], dvy[kLaneBlock], dvz[kLaneBlock];  ///< v_j - v_i
   HWY_ALIGN double wix[kLaneBlock], wiy[kLaneBlock], wiz[kLaneBlock];
   HWY_ALIGN double wjx[kLaneBlock], wjy[kLaneBlock], wjz[kLaneBlock];
+  // What the geometry loop of evaluate_block measures for the law loop.
+  HWY_ALIGN double nx[kLaneBlock], ny[kLaneBlock], nz[kLaneBlock];  ///< unit n, i toward j
+  HWY_ALIGN double overlap[kLaneBlock];  ///< delta where in contact, else +0
+  HWY_ALIGN double r_star[kLaneBlock], m_star[kLaneBlock];
+  HWY_ALIGN double a_contact[kLaneBlock];  ///< contact radius sqrt(r* delta)
+  HWY_ALIGN double root_mk[kLaneBlock];    ///< sqrt(m* k_con), hertz_root_mk
   HWY_ALIGN double criterion[kLaneBlock];  ///< 1 where the pair may bond now
   HWY_ALIGN double bonded[kLaneBlock];     ///< out: 1 where the pair is bonded after the pass
   /// Per-lane LanePairConstants, filled only when the scene has several material pairs.
@@ -99,12 +105,13 @@ HWY_INLINE void pack_block(const detail::LanePassArgs& a, PairBlock& b, std::uin
       b.dz[s] = z[second[s]] - z[first[s]];
     }
     // Periodic images are rare: most pairs add no shift.
+    const std::uint8_t* HWY_RESTRICT image = a.list->images() + first_k;
     for (std::uint32_t s = 0; s < count; ++s) {
-      const std::uint8_t image = a.list->image(first_k + s);
-      if (image == 0) continue;
-      b.dx[s] += a.shift_x[image];
-      b.dy[s] += a.shift_y[image];
-      b.dz[s] += a.shift_z[image];
+      const std::uint8_t code = image[s];
+      if (code == 0) continue;
+      b.dx[s] += a.shift_x[code];
+      b.dy[s] += a.shift_y[code];
+      b.dz[s] += a.shift_z[code];
     }
   }
   {
@@ -212,18 +219,43 @@ HWY_INLINE void evaluate_block(const detail::LanePassArgs& a, PairBlock& b, std:
   const auto constant = [&](int v, double uniform_value, std::uint32_t s) HWY_ATTR {
     return a.uniform ? hn::Set(d, uniform_value) : hn::Load(d, b.constant[v] + s);
   };
-  V max_overlap = zero;
-  V max_fraction = zero;
+  // The geometry first, in a loop of its own: its three roots and one division do not depend on
+  // the vector before, so they overlap one another. Inside the law loop each waited at the head
+  // of a long chain. Both loops perform the same operations as one would: the same bytes.
   for (std::uint32_t s = 0; s < count; s += static_cast<std::uint32_t>(lanes)) {
-    const std::size_t valid = std::min<std::size_t>(lanes, count - s);
-    const std::uint32_t k = first_k + s;
-    const M in_block = hn::FirstN(d, valid);
+    const M in_block = hn::FirstN(d, std::min<std::size_t>(lanes, count - s));
     const V dx = hn::Load(d, b.dx + s), dy = hn::Load(d, b.dy + s), dz = hn::Load(d, b.dz + s);
     const V ri = hn::Load(d, b.ri + s), rj = hn::Load(d, b.rj + s);
     const V distance = hn::Sqrt(dx * dx + dy * dy + dz * dz);
     const V radius_sum = ri + rj;
     const V overlap = radius_sum - distance;
     const M contact = hn::And(in_block, overlap > zero);
+    const V mi = hn::Load(d, b.mi + s), mj = hn::Load(d, b.mj + s);
+    // One reciprocal gives 1/distance, r* = r_i r_j / (r_i + r_j) and m* likewise.
+    const V mass_sum = mi + mj;
+    const V q = one / (distance * radius_sum * mass_sum);
+    const V inverse_distance = radius_sum * mass_sum * q;
+    const V r_star = ri * rj * (distance * mass_sum) * q;
+    const V m_star = mi * mj * (distance * radius_sum) * q;
+    const V positive_overlap = zero_where(d, hn::Not(contact), overlap);
+    const V a_contact = hn::Sqrt(r_star * positive_overlap);
+    hn::Store(dx * inverse_distance, d, b.nx + s);
+    hn::Store(dy * inverse_distance, d, b.ny + s);
+    hn::Store(dz * inverse_distance, d, b.nz + s);
+    hn::Store(positive_overlap, d, b.overlap + s);
+    hn::Store(r_star, d, b.r_star + s);
+    hn::Store(m_star, d, b.m_star + s);
+    hn::Store(a_contact, d, b.a_contact + s);
+    hn::Store(hertz_root_mk(d, constant(1, c0.two_e, s), m_star, a_contact), d, b.root_mk + s);
+  }
+  V max_overlap = zero;
+  V max_fraction = zero;
+  for (std::uint32_t s = 0; s < count; s += static_cast<std::uint32_t>(lanes)) {
+    const std::size_t valid = std::min<std::size_t>(lanes, count - s);
+    const std::uint32_t k = first_k + s;
+    // delta > 0 exactly where the pair is in the block and in contact (the geometry loop).
+    const V positive_overlap = hn::Load(d, b.overlap + s);
+    const M contact = positive_overlap > zero;
     if (hn::AllFalse(d, contact)) {
       // No contact in these lanes: no force, torque or bond, springs released.
       store_lanes(d, zero, valid, out.fx.data() + k);
@@ -243,22 +275,17 @@ HWY_INLINE void evaluate_block(const detail::LanePassArgs& a, PairBlock& b, std:
       }
       continue;
     }
+    const V ri = hn::Load(d, b.ri + s), rj = hn::Load(d, b.rj + s);
     const V mi = hn::Load(d, b.mi + s), mj = hn::Load(d, b.mj + s);
-    // One reciprocal gives 1/distance, r* = r_i r_j / (r_i + r_j) and m* likewise.
-    const V mass_sum = mi + mj;
-    const V q = one / (distance * radius_sum * mass_sum);
-    const V inverse_distance = radius_sum * mass_sum * q;
-    const V r_star = ri * rj * (distance * mass_sum) * q;
-    const V m_star = mi * mj * (distance * radius_sum) * q;
-    const Lanes3<D> n{dx * inverse_distance, dy * inverse_distance, dz * inverse_distance};
+    const V r_star = hn::Load(d, b.r_star + s), m_star = hn::Load(d, b.m_star + s);
+    const Lanes3<D> n{hn::Load(d, b.nx + s), hn::Load(d, b.ny + s), hn::Load(d, b.nz + s)};
     const Lanes3<D> dv{hn::Load(d, b.dvx + s), hn::Load(d, b.dvy + s), hn::Load(d, b.dvz + s)};
     const V rate = hn::Neg(dot(dv, n));
-    const V positive_overlap = zero_where(d, hn::Not(contact), overlap);
-    const V a_contact = hn::Sqrt(r_star * positive_overlap);
+    const V a_contact = hn::Load(d, b.a_contact + s);
     const V four_thirds_e = constant(0, c0.four_thirds_e, s);
     const HertzLanes<D> h =
         hertz_lanes(d, four_thirds_e, constant(1, c0.two_e, s), constant(2, c0.two_xi_contact, s),
-                    m_star, a_contact, positive_overlap, rate);
+                    hn::Load(d, b.root_mk + s), a_contact, positive_overlap, rate);
     V normal = h.force;
     V load = hn::Neg(h.force);
     M bonded = hn::And(contact, a.uniform_criterion < 0 ? hn::Load(d, b.criterion + s) > zero
@@ -372,11 +399,12 @@ ContactSummary LanePass(const detail::LanePassArgs& a, std::size_t first_row,
   const std::uint32_t pairs_end = row_begin[last_row];
   for (std::uint32_t block = row_begin[first_row]; block < pairs_end; block += kLaneBlock) {
     const std::uint32_t count = std::min(pairs_end - block, kLaneBlock);
+    const std::uint32_t* HWY_RESTRICT second = a.list->seconds() + block;
     for (std::uint32_t s = 0; s < count; ++s) {
       const std::uint32_t k = block + s;
       while (row_begin[row + 1] <= k) ++row;
       b.first[s] = static_cast<std::uint32_t>(row);
-      b.second[s] = static_cast<std::uint32_t>(a.list->second(k));
+      b.second[s] = second[s];
     }
     pack_block<kFriction>(a, b, block, count);
     pad_block(b, count, (count + lanes - 1) / lanes * lanes);

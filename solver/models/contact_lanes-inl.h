@@ -49,17 +49,24 @@ struct HertzLanes {
   hn::Vec<D> stiffness;  ///< k_con = 2 E* a [N/m]
 };
 
+/// sqrt(m* k_con) with k_con = 2 E* a: the root of the Hertz damper, separate from hertz_lanes so
+/// that a kernel can take every root of a block in one short loop.
+template <class D>
+HWY_INLINE hn::Vec<D> hertz_root_mk(D /*d*/, hn::Vec<D> two_e, hn::Vec<D> m_star, hn::Vec<D> a) {
+  return hn::Sqrt(m_star * (two_e * a));
+}
+
 /// Damped Hertz contact at @p overlap (> 0 on the lanes that matter) approaching at @p rate, with
-/// contact radius @p a = sqrt(r* delta), effective mass @p m_star and pair constants
-/// (4/3) E*, 2 E* and 2 xi_con.
+/// contact radius @p a = sqrt(r* delta), @p root_mk = hertz_root_mk(2 E*, m*, a) and pair
+/// constants (4/3) E*, 2 E* and 2 xi_con.
 template <class D>
 HWY_INLINE HertzLanes<D> hertz_lanes(D d, hn::Vec<D> four_thirds_e, hn::Vec<D> two_e,
-                                     hn::Vec<D> two_xi, hn::Vec<D> m_star, hn::Vec<D> a,
+                                     hn::Vec<D> two_xi, hn::Vec<D> root_mk, hn::Vec<D> a,
                                      hn::Vec<D> overlap, hn::Vec<D> rate) {
   HertzLanes<D> h;
   h.elastic = four_thirds_e * a * overlap;
   h.stiffness = two_e * a;
-  h.root_mk = hn::Sqrt(m_star * h.stiffness);
+  h.root_mk = root_mk;
   const hn::Vec<D> force = hn::Neg(h.elastic) - two_xi * h.root_mk * rate;
   h.force = zero_where(d, force > hn::Zero(d), force);
   return h;
