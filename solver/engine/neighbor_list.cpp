@@ -196,7 +196,7 @@ void NeighborList::find_rows(const Particles& p, const Domain& domain, double sk
     std::vector<std::uint8_t> image;
     std::size_t first_row = 0;  ///< the first row it searched; n: none
   };
-  const int threads = n >= kMinParallelParticles ? omp_get_max_threads() : 1;
+  const int threads = threads_in_use(n);
   std::vector<ThreadRows> rows(static_cast<std::size_t>(threads));
   row_begin_.resize(n + 1);
   row_begin_[0] = 0;
@@ -240,9 +240,9 @@ void NeighborList::index_columns() {
 }
 
 void NeighborList::release_scratch() {
-  // The grid and the per-thread buffers serve only while building. Returning them keeps what a
-  // run holds between rebuilds to the list itself (about 30 bytes per particle less); a rebuild,
-  // every tens of steps at most, pays a few allocations for it.
+  // The grid serves only while building (find_rows frees its per-thread buffers itself). Returning
+  // it keeps what a run holds between rebuilds to the list itself (about 30 bytes per particle
+  // less, with those buffers); a rebuild, every tens of steps at most, pays a few allocations.
   release(cell_of_);
   release(cell_begin_);
   release(cell_items_);

@@ -156,7 +156,7 @@ class NeighborList {
   void find_rows(const Particles& p, const Domain& domain, double skin);
   /// The transposed index (pairs by their second particle), count -> scan -> fill.
   void index_columns();
-  /// Return the grid and per-thread buffers, which serve only while building.
+  /// Return the grid, which serves only while building.
   void release_scratch();
 
   StaggeredVector<std::uint32_t>
