@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <array>
+#include <random>
 #include <set>
 
 #include "all_pairs.hpp"
@@ -204,6 +205,82 @@ TEST(NeighborList, ShortPeriodicAxisOfAWideDomainKeepsThreeCells) {
   const PairSet expected = oracle(scene.particles, scene.domain, skin);
   EXPECT_EQ(expected.size(), 3u) << "two pairs across the face and one inside";
   EXPECT_EQ(listed_contacts(scene.particles, list, skin, scene.domain), expected);
+}
+
+/// Spheres of radius @p r on a simple cubic lattice of @p nx x @p ny x @p nz sites, spacing 2.2 r,
+/// filling a domain of that size, inserted in a shuffled order; @p periodic as given.
+Scene shuffled_bed(int nx, int ny, int nz, double r, std::array<bool, 3> periodic) {
+  Case c = testing::soft_case(0.0);
+  const double spacing = 2.2 * r;
+  c.domain = Domain{};
+  c.domain->min = Eigen::Vector3d::Zero();
+  c.domain->max = spacing * Eigen::Vector3d(nx, ny, nz);
+  c.domain->periodic = periodic;
+  std::vector<Eigen::Vector3d> sites;
+  for (int iz = 0; iz < nz; ++iz) {
+    for (int iy = 0; iy < ny; ++iy) {
+      for (int ix = 0; ix < nx; ++ix) sites.push_back(spacing * Eigen::Vector3d(ix, iy, iz));
+    }
+  }
+  std::mt19937 random(7);
+  std::shuffle(sites.begin(), sites.end(), random);
+  for (const Eigen::Vector3d& site : sites) {
+    ParticleSpec p;
+    p.radius = r;
+    p.position = site + Eigen::Vector3d::Constant(0.5 * spacing);
+    c.particles.push_back(p);
+  }
+  return build_scene(c);
+}
+
+/// How far the first half of the particles (by index) reaches past the start of the second half
+/// along @p axis: below a cell or two when the halves are slabs across that axis.
+double halves_overlap(const Particles& p, int axis) {
+  const StaggeredVector<double>& coord = axis == 0 ? p.x : (axis == 1 ? p.y : p.z);
+  const std::size_t half = p.size() / 2;
+  const double first_end = *std::max_element(coord.begin(), coord.begin() + half);
+  const double second_start = *std::min_element(coord.begin() + half, coord.end());
+  return first_end - second_start;
+}
+
+// Threads own contiguous ranges of the particles, which the reordering sorts by cell: the axis
+// that varies slowest is the one across which the threads' ranges meet, and it must be the one
+// with the smallest cut (the threads trade the data of the particles on the cut every step).
+TEST(NeighborList, ReorderingRunsAlongTheSmallestCut) {
+  const double r = 50e-6;
+  const double skin = 10e-6;
+  // A cell holds one site (cell size 2 r + skin = 2.2 r), so two cells are 4.4 r.
+  const double two_cells = 4.4 * r;
+  {
+    // A long, shallow bed: cut across x 8 x 4 sites, across y 48 x 4, across z 48 x 8.
+    Scene scene = shuffled_bed(48, 8, 4, r, {false, false, false});
+    NeighborList list;
+    list.build(scene.particles, scene.domain, skin, true);
+    EXPECT_LT(halves_overlap(scene.particles, 0), two_cells);
+    EXPECT_GT(halves_overlap(scene.particles, 2), 0.0) << "z no longer the slowest axis";
+  }
+  {
+    // Periodic in x and filled: cut across x twice (at the middle and where x wraps), 2 x 16 x 4
+    // sites, more than across y, 24 x 4. Counting the x cut once would pick x.
+    Scene scene = shuffled_bed(24, 16, 4, r, {true, false, false});
+    NeighborList list;
+    list.build(scene.particles, scene.domain, skin, true);
+    EXPECT_LT(halves_overlap(scene.particles, 1), two_cells);
+    EXPECT_GT(halves_overlap(scene.particles, 0), two_cells);
+  }
+  {
+    // A cube keeps z slowest.
+    Scene scene = shuffled_bed(10, 10, 10, r, {false, false, false});
+    NeighborList list;
+    list.build(scene.particles, scene.domain, skin, true);
+    EXPECT_LT(halves_overlap(scene.particles, 2), two_cells);
+  }
+  // And the list is still the oracle's.
+  Scene scene = shuffled_bed(24, 16, 4, r, {true, false, false});
+  NeighborList list;
+  list.build(scene.particles, scene.domain, skin, true);
+  EXPECT_EQ(listed_contacts(scene.particles, list, skin, scene.domain),
+            oracle(scene.particles, scene.domain, skin));
 }
 
 TEST(NeighborList, RefusesPeriodicAxisShorterThanThreeCells) {

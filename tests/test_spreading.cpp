@@ -62,15 +62,19 @@ std::vector<double> history_means(const std::filesystem::path& path,
   return sums;
 }
 
-/// The run of cases/@p name, made on first use and kept for the other tests of the process.
-/// History every 0.1 ms instead of the case's 1 ms: the loads are instantaneous, and their means
-/// over the 24 ms of spreading need the 240 rows (the rows do not change the run).
-const SpreadingRun& spreading_run(const std::string& name) {
+/// The run of cases/@p name, made on first use and kept for the other tests of the process; with
+/// @p seed other than 0, its insertion seed instead of the case's. History every 0.1 ms instead
+/// of the case's 1 ms: the loads are instantaneous, and their means over the 24 ms of spreading
+/// need the 240 rows (the rows do not change the run).
+const SpreadingRun& spreading_run(const std::string& name, int seed = 0) {
   static std::map<std::string, SpreadingRun> runs;
-  if (const auto found = runs.find(name); found != runs.end()) return found->second;
+  const std::string key = seed == 0 ? name : name + "_seed" + std::to_string(seed);
+  if (const auto found = runs.find(key); found != runs.end()) return found->second;
   SpreadingRun run;
-  run.c = load_case(BONDEM_CASES_DIR "/" + name + ".yaml", {"output.history_interval=1e-4"});
-  run.directory = testing::test_root() / ("bondem_spreading_" + name);
+  std::vector<std::string> overrides = {"output.history_interval=1e-4"};
+  if (seed != 0) overrides.push_back("insert.0.seed=" + std::to_string(seed));
+  run.c = load_case(BONDEM_CASES_DIR "/" + name + ".yaml", overrides);
+  run.directory = testing::test_root() / ("bondem_spreading_" + key);
   run.r = testing::quiet_run(run.c, run.directory);
   const auto blade = std::find_if(run.c.boundaries.begin(), run.c.boundaries.end(),
                                   [](const Boundary& b) { return b.name == "blade"; });
@@ -80,7 +84,7 @@ const SpreadingRun& spreading_run(const std::string& name) {
                     {"load_substrate_x", "load_substrate_z", "load_blade_x"}, blade_start);
   run.substrate_drag = means[0] / -means[1];
   run.blade_load = -means[2];
-  return runs.emplace(name, std::move(run)).first->second;
+  return runs.emplace(key, std::move(run)).first->second;
 }
 
 TEST(Spreading, CiVariantLeavesAPlausibleLayer) {
@@ -142,27 +146,45 @@ TEST(Spreading, PolishedSteelLetsTheHeapSlideAndLeavesAThinnerSmootherLayer) {
 }
 
 // Cohesive powder (JKR between powder particles, Bond number 5): the heap holds together and the
-// blade leaves fewer particles, with bare substrate between them. Margins as above, from seeds 7,
-// 11, 23, 31 and 43 of both cases.
+// blade leaves fewer particles, with bare substrate between them. One realization of 800
+// particles does not show it reliably: since the cell order of 2026-12-03 (another realization
+// of every seed), seed 43 left a layer like the base's (solid fraction 0.2208 against 0.2216, bare
+// fraction +0.022, 85 particles against 90), where the earlier realizations of seeds 7, 11, 23,
+// 31 and 43 all showed it. So the test compares the means of seeds 7 (the cases' own) and 11,
+// the first two of those five (two runs more keep CI short: each takes about 40 s).
 TEST(Spreading, CohesionLeavesASparserLayerWithMoreBareSubstrate) {
-  const SpreadingRun& base = spreading_run("powder_spreading_ci");
-  const SpreadingRun& cohesive = spreading_run("powder_spreading_cohesive_ci");
-  ASSERT_TRUE(base.r.layer && cohesive.r.layer);
-  const LayerMetrics& b = *base.r.layer;
-  const LayerMetrics& k = *cohesive.r.layer;
-  // Seed 7: solid fraction 0.24 -> 0.18, bare fraction 0.16 -> 0.33, particles in the layer box
-  // 21 fewer of 94, blade load 1.62 times. Over 5 seeds (with the earlier closed-form JKR radius,
-  // the same law to the last bits, which a chaotic run amplifies): solid fraction 0.029-0.097
-  // lower, bare fraction 0.10-0.28 higher, 14-31 fewer particles, blade load 1.17-1.51 times.
-  EXPECT_LT(k.solid_fraction, b.solid_fraction - 0.015);
-  EXPECT_GT(k.empty_fraction, b.empty_fraction + 0.05);
-  EXPECT_LT(k.particles + 5, b.particles);
-  // The cohesive heap is stronger: the blade pushes it harder. The mean of a load this spiky
-  // varies much between realizations: 1.17-1.51 times over the five seeds before the SIMD pair
-  // pass, 1.03 times for seed 7 with it (the base's layer is another realization since).
-  EXPECT_GT(cohesive.blade_load, base.blade_load);
-  // No bond law: cohesion forms no bonded clusters; it holds contacts only.
-  EXPECT_EQ(cohesive.r.clusters, 0u);
+  double base_solid = 0.0, cohesive_solid = 0.0, base_empty = 0.0, cohesive_empty = 0.0;
+  double base_particles = 0.0, cohesive_particles = 0.0, base_load = 0.0, cohesive_load = 0.0;
+  constexpr int kSeeds[] = {0, 11};  // 0: the cases' own seed, 7
+  for (const int seed : kSeeds) {
+    const SpreadingRun& base = spreading_run("powder_spreading_ci", seed);
+    const SpreadingRun& cohesive = spreading_run("powder_spreading_cohesive_ci", seed);
+    ASSERT_TRUE(base.r.layer && cohesive.r.layer);
+    const LayerMetrics& b = *base.r.layer;
+    const LayerMetrics& k = *cohesive.r.layer;
+    base_solid += b.solid_fraction / 2.0;
+    cohesive_solid += k.solid_fraction / 2.0;
+    base_empty += b.empty_fraction / 2.0;
+    cohesive_empty += k.empty_fraction / 2.0;
+    base_particles += static_cast<double>(b.particles) / 2.0;
+    cohesive_particles += static_cast<double>(k.particles) / 2.0;
+    base_load += base.blade_load / 2.0;
+    cohesive_load += cohesive.blade_load / 2.0;
+    // No bond law: cohesion forms no bonded clusters; it holds contacts only.
+    EXPECT_EQ(cohesive.r.clusters, 0u) << "seed " << seed;
+  }
+  // Seeds 7, 11: solid fraction 0.203, 0.200 -> 0.193, 0.136 (mean 0.037 lower); bare fraction
+  // 0.24, 0.24 -> 0.30, 0.45 (0.14 higher); particles in the layer box 83, 89 -> 75, 65 (16
+  // fewer). Seed 23 gave 0.228 -> 0.178, 0.19 -> 0.32 and 103 -> 75, seed 31 0.222 -> 0.172,
+  // 0.18 -> 0.35 and 100 -> 74. The earlier realizations of the five seeds
+  // gave solid fractions 0.029-0.097 lower, bare fractions 0.10-0.28 higher, 14-31 fewer
+  // particles; the margins are those the single run of seed 7 was held to.
+  EXPECT_LT(cohesive_solid, base_solid - 0.015);
+  EXPECT_GT(cohesive_empty, base_empty + 0.05);
+  EXPECT_LT(cohesive_particles + 5.0, base_particles);
+  // The cohesive heap is stronger: the blade pushes it harder (1.17-1.51 times over the five
+  // seeds before the SIMD pair pass; the mean of a load this spiky varies much between runs).
+  EXPECT_GT(cohesive_load, base_load);
 }
 
 }  // namespace

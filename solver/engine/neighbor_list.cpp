@@ -40,6 +40,37 @@ std::array<int, 3> grid_cells(const Eigen::Vector3d& length, double cell_size, d
   return cells;
 }
 
+/// Strides of the linear cell index along x, y and z. Particles are sorted by cell, and every
+/// parallel loop gives each thread one contiguous range of them, so the threads' ranges meet
+/// across planes of the slowest axis: the data of the particles on such a plane crosses between
+/// the cores' caches every step. The slowest axis is therefore the one whose cut through the
+/// @p occupied cells is the smallest (twice its cross-section when the particles fill a periodic
+/// axis, which is cut again where it wraps); of the other two the longer varies fastest (long
+/// runs of neighbours in memory: measured 1-2 % faster on one thread than the shorter). Ties
+/// keep z slowest and x fastest.
+std::array<std::size_t, 3> cell_strides(const std::array<int, 3>& cells,
+                                        const std::array<int, 3>& occupied,
+                                        const std::array<bool, 3>& periodic) {
+  const auto cut = [&](int a) {
+    const double section = static_cast<double>(occupied[(a + 1) % 3]) * occupied[(a + 2) % 3];
+    return periodic[a] && occupied[a] == cells[a] ? 2.0 * section : section;
+  };
+  int slow = 2;
+  for (int a : {1, 0}) {
+    if (cut(a) < cut(slow)) slow = a;
+  }
+  int fast = slow == 0 ? 1 : 0;
+  const int other = 3 - slow - fast;
+  if (occupied[other] > occupied[fast]) fast = other;
+  const int middle = 3 - slow - fast;
+  std::array<std::size_t, 3> stride{};
+  stride[static_cast<std::size_t>(fast)] = 1;
+  stride[static_cast<std::size_t>(middle)] = static_cast<std::size_t>(cells[fast]);
+  stride[static_cast<std::size_t>(slow)] =
+      static_cast<std::size_t>(cells[fast]) * static_cast<std::size_t>(cells[middle]);
+  return stride;
+}
+
 }  // namespace
 
 void NeighborList::bin(const Particles& p, const Domain& domain, double cell_size) {
@@ -73,7 +104,12 @@ void NeighborList::bin(const Particles& p, const Domain& domain, double cell_siz
   cell_of_.resize(n);
   const double* coords[3] = {p.x.data(), p.y.data(), p.z.data()};
   bool finite = true;
-#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) reduction(&& : finite)
+  // First x fastest and z slowest, with the occupied range of each axis; then, if cell_strides
+  // orders the axes otherwise, the same cells renumbered.
+  int low_x = cells_[0], low_y = cells_[1], low_z = cells_[2];
+  int high_x = -1, high_y = -1, high_z = -1;
+#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) reduction(&& : finite) \
+    reduction(min : low_x, low_y, low_z) reduction(max : high_x, high_y, high_z)
   for (std::size_t i = 0; i < n; ++i) {
     int c[3];
     for (int a = 0; a < 3; ++a) {
@@ -83,6 +119,12 @@ void NeighborList::bin(const Particles& p, const Domain& domain, double cell_siz
       // neighbor within one cell: the search stays exact.
       c[a] = std::isfinite(u) ? std::clamp(static_cast<int>(std::floor(u)), 0, cells_[a] - 1) : 0;
     }
+    low_x = std::min(low_x, c[0]);
+    low_y = std::min(low_y, c[1]);
+    low_z = std::min(low_z, c[2]);
+    high_x = std::max(high_x, c[0]);
+    high_y = std::max(high_y, c[1]);
+    high_z = std::max(high_z, c[2]);
     cell_of_[i] = static_cast<std::uint32_t>(c[0] + cells_[0] * (c[1] + cells_[1] * c[2]));
   }
   if (!finite) {
@@ -92,6 +134,23 @@ void NeighborList::bin(const Particles& p, const Domain& domain, double cell_siz
                                  " has a non-finite position: the run blew up (time step too "
                                  "large for the contact stiffness?)");
       }
+    }
+  }
+  const std::array<int, 3> occupied{std::max(1, high_x - low_x + 1),
+                                    std::max(1, high_y - low_y + 1),
+                                    std::max(1, high_z - low_z + 1)};
+  cell_stride_ = cell_strides(cells_, occupied, domain.periodic);
+  const std::array<std::size_t, 3> x_fastest{1, static_cast<std::size_t>(cells_[0]),
+                                             static_cast<std::size_t>(cells_[0]) * cells_[1]};
+  if (cell_stride_ != x_fastest) {
+#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles)
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::size_t c = cell_of_[i];
+      const std::size_t x = c % x_fastest[1];
+      const std::size_t y = c / x_fastest[1] % static_cast<std::size_t>(cells_[1]);
+      const std::size_t z = c / x_fastest[2];
+      cell_of_[i] = static_cast<std::uint32_t>(x * cell_stride_[0] + y * cell_stride_[1] +
+                                               z * cell_stride_[2]);
     }
   }
   // count -> scan -> fill; the serial fill keeps each cell's particles in index order.
@@ -129,11 +188,12 @@ void NeighborList::search_row(const Particles& p, const Domain& domain,
                               const Eigen::Vector3d& length, double skin, std::size_t i,
                               std::vector<std::uint32_t>& row_second,
                               std::vector<std::uint8_t>& row_image) const {
-  const std::uint32_t c = cell_of_[i];
-  const int home[3] = {static_cast<int>(c % static_cast<std::uint32_t>(cells_[0])),
-                       static_cast<int>(c / static_cast<std::uint32_t>(cells_[0]) %
-                                        static_cast<std::uint32_t>(cells_[1])),
-                       static_cast<int>(c / static_cast<std::uint32_t>(cells_[0] * cells_[1]))};
+  const std::size_t c = cell_of_[i];
+  int home[3];
+  for (int a = 0; a < 3; ++a) {
+    home[a] = static_cast<int>(c / cell_stride_[static_cast<std::size_t>(a)] %
+                               static_cast<std::size_t>(cells_[static_cast<std::size_t>(a)]));
+  }
   for (int dz = -1; dz <= 1; ++dz) {
     for (int dy = -1; dy <= 1; ++dy) {
       for (int dx = -1; dx <= 1; ++dx) {
@@ -163,11 +223,9 @@ void NeighborList::search_row(const Particles& p, const Domain& domain,
         // With one or two cells on a non-periodic axis the offsets -1 and +1 are skipped or
         // distinct; with three or more periodic cells they are distinct too: no duplicates.
         if (!inside) continue;
-        const std::size_t cell =
-            static_cast<std::size_t>(neighbor[0]) +
-            static_cast<std::size_t>(cells_[0]) *
-                (static_cast<std::size_t>(neighbor[1]) +
-                 static_cast<std::size_t>(cells_[1]) * static_cast<std::size_t>(neighbor[2]));
+        const std::size_t cell = static_cast<std::size_t>(neighbor[0]) * cell_stride_[0] +
+                                 static_cast<std::size_t>(neighbor[1]) * cell_stride_[1] +
+                                 static_cast<std::size_t>(neighbor[2]) * cell_stride_[2];
         for (std::uint32_t k = cell_begin_[cell]; k < cell_begin_[cell + 1]; ++k) {
           const std::uint32_t j = cell_items_[k];
           if (j <= i) continue;

@@ -168,6 +168,7 @@ class NeighborList {
   std::array<Eigen::Vector3d, 27> shifts_;       ///< add to x_j - x_i for image code k
   std::int64_t builds_ = 0;                      ///< number of builds so far
   std::array<int, 3> cells_{1, 1, 1};
+  std::array<std::size_t, 3> cell_stride_{1, 1, 1};  ///< of the linear cell index (cell_strides)
   Eigen::Vector3d cell_width_ = Eigen::Vector3d::Ones();
   StaggeredVector<double> x0_, y0_, z0_;  ///< positions at the last build
   // Scratch space of build(), released when it returns.
