@@ -267,20 +267,15 @@ TEST(NeighborList, ReorderingRunsAlongTheSmallestCut) {
     list.build(scene.particles, scene.domain, skin, true);
     EXPECT_LT(halves_overlap(scene.particles, 1), two_cells);
     EXPECT_GT(halves_overlap(scene.particles, 0), two_cells);
+    // And the list is still the oracle's.
+    EXPECT_EQ(listed_contacts(scene.particles, list, skin, scene.domain),
+              oracle(scene.particles, scene.domain, skin));
   }
-  {
-    // A cube keeps z slowest.
-    Scene scene = shuffled_bed(10, 10, 10, r, {false, false, false});
-    NeighborList list;
-    list.build(scene.particles, scene.domain, skin, true);
-    EXPECT_LT(halves_overlap(scene.particles, 2), two_cells);
-  }
-  // And the list is still the oracle's.
-  Scene scene = shuffled_bed(24, 16, 4, r, {true, false, false});
+  // A cube keeps z slowest.
+  Scene scene = shuffled_bed(10, 10, 10, r, {false, false, false});
   NeighborList list;
   list.build(scene.particles, scene.domain, skin, true);
-  EXPECT_EQ(listed_contacts(scene.particles, list, skin, scene.domain),
-            oracle(scene.particles, scene.domain, skin));
+  EXPECT_LT(halves_overlap(scene.particles, 2), two_cells);
 }
 
 TEST(NeighborList, RefusesPeriodicAxisShorterThanThreeCells) {
