@@ -144,13 +144,17 @@ TEST(InitialState, FromACheckpointTheParticlesTheirSpinsAndTheirSpringsCarryOver
   }
   // A spring is kept while its pair is within the list's reach, as on any rebuild: all are.
   EXPECT_EQ(carried_change.size(), saved.stepper.slips.size());
-  // Relative to the saved spring, by the median over pairs: a carried spring moves by one step of
-  // sliding (measured: 0.5 %), a fresh one starts from zero (100 %).
-  const auto median = [](std::vector<double> v) {
-    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-    return v[v.size() / 2];
-  };
-  EXPECT_LT(median(carried_change), 0.1 * median(fresh_change));
+  // Relative to the saved spring: a carried spring moves by one step of sliding (measured: 0.5 %
+  // by the median, 5 % at most). A fresh start loses the springs of the pairs that stick (measured:
+  // 5 of 12 change by more than half); a pair sliding at the Coulomb limit reaches the same capped
+  // spring from zero within the first step, so those do not tell the two apart.
+  std::size_t lost = 0;
+  for (std::size_t k = 0; k < fresh_change.size(); ++k) {
+    if (fresh_change[k] < 0.5) continue;
+    ++lost;
+    EXPECT_LT(carried_change[k], 0.1) << "a sticking spring was not carried over";
+  }
+  EXPECT_GE(lost, 3u) << "too few sticking pairs to tell a carried spring from a fresh one";
   Scene scene = build_scene(c);
 
   // Ids, positions, velocities and spins are the checkpoint's, exactly.

@@ -164,16 +164,24 @@ TEST(NeighborList, BlockAndPerParticleWalksMatchThePairWalk) {
           other_begun = true;
           other.push_back(k);
         });
+    // Each pair is seen from its smaller id, and each particle meets its partners in id order
+    // (own row, then the others): sums over them do not depend on the storage order.
+    const auto& id = scene.particles.id;
+    std::vector<std::int64_t> own_partners, other_partners;
     for (const std::uint32_t k : own) {
       EXPECT_EQ(pairs[k][0], m);
+      EXPECT_LT(id[m], id[pairs[k][1]]);
+      own_partners.push_back(id[pairs[k][1]]);
       ++seen[k];
     }
     for (const std::uint32_t k : other) {
       EXPECT_EQ(pairs[k][1], m);
+      EXPECT_LT(id[pairs[k][0]], id[m]);
+      other_partners.push_back(id[pairs[k][0]]);
       ++seen[k];
     }
-    EXPECT_TRUE(std::is_sorted(own.begin(), own.end()));
-    EXPECT_TRUE(std::is_sorted(other.begin(), other.end()));
+    EXPECT_TRUE(std::is_sorted(own_partners.begin(), own_partners.end()));
+    EXPECT_TRUE(std::is_sorted(other_partners.begin(), other_partners.end()));
   }
   for (const int count : seen) EXPECT_EQ(count, 2);  // once from each member
 }

@@ -421,6 +421,26 @@ TEST(LaserDeposit, TiesGoToTheSmallerIndex) {
   EXPECT_EQ(heat[0], d.absorbed);
 }
 
+TEST(LaserDeposit, WithIdsTiesGoToTheSmallerIdInAnyStorageOrder) {
+  // The same two coincident spheres stored either way round: with ids, the one of id 3 owns the
+  // shared columns both times, so the deposit follows the particle, not its index.
+  Bed bed;
+  bed.add(5e-6, 0.0, 10e-6, 10e-6);
+  bed.add(5e-6, 0.0, 10e-6, 10e-6);
+  const Laser laser = beam_at(Eigen::Vector2d(0.0, 0.0), 100.0, 20e-6, 1.0);
+  for (const std::vector<std::int64_t>& ids :
+       {std::vector<std::int64_t>{3, 8}, std::vector<std::int64_t>{8, 3}}) {
+    std::vector<double> heat(2, 0.0);
+    LaserScratch scratch;
+    const LaserDeposit d =
+        deposit_laser_heat(bed.x.data(), bed.y.data(), bed.z.data(), bed.r.data(), ids.data(),
+                           bed.size(), laser, 0.0, heat.data(), scratch);
+    const std::size_t smaller = ids[0] < ids[1] ? 0 : 1;
+    EXPECT_EQ(heat[smaller], d.absorbed);
+    EXPECT_EQ(heat[1 - smaller], 0.0);
+  }
+}
+
 TEST(LaserDeposit, FarAwayOrOffBeamDepositsNothing) {
   Bed bed;
   add_square_layer(bed, 20e-6, 20e-6, 0.0, 3);

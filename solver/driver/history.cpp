@@ -5,6 +5,8 @@
 #include <cmath>
 #include <sstream>
 
+#include "solver/engine/exact_sum.hpp"
+
 namespace bondem {
 
 char* write_exact_text(char* out, double value) {
@@ -56,9 +58,9 @@ std::vector<HistoryColumn> history_columns(const Scene& scene, const Stepper& st
                        }});
     columns.push_back({"mean_temperature", "K", [&t, ambient] {
                          if (t.empty()) return ambient;
-                         double sum = 0.0;
-                         for (const double value : t) sum += value;  // index order: any threads
-                         return sum / static_cast<double>(t.size());
+                         ExactSum sum;  // exact: any thread count and any particle order
+                         for (const double value : t) sum.add(value);
+                         return sum.value() / static_cast<double>(t.size());
                        }});
     columns.push_back({"laser_energy", "J", [&] { return stepper.laser_energy(); }});
   }

@@ -10,6 +10,8 @@
 /// they return; the formulas are the laws'. The normal-force law is a template argument (see
 /// normal_law.hpp): the kernels are compiled once per law object, not per case option.
 
+#include <omp.h>
+
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
@@ -23,6 +25,7 @@
 
 #include "geometry/boundary.hpp"
 #include "geometry/triangle_mesh.hpp"
+#include "solver/engine/exact_sum.hpp"
 #include "solver/engine/mesh_candidates.hpp"
 #include "solver/engine/neighbor_list.hpp"
 #include "solver/engine/scene.hpp"
@@ -540,7 +543,7 @@ void mesh_boundary_contacts(Particles& p, const Scene& scene, const Law& law, st
   }
 }
 
-/// Particles per block of the wall-load partial sums of gather_forces.
+/// Particles per block of gather_forces, the unit its threads share out.
 inline constexpr std::size_t kWallLoadBlock = 64;
 
 /// What one particle receives in pass 2, summed in one fixed order.
@@ -613,17 +616,17 @@ template <bool kFriction, bool kModels, class Law>
 [[gnu::always_inline]] inline void gather_boundaries(
     Particles& p, const Scene& scene, const Law& law, const std::vector<BoundaryFrame>& frames,
     const std::vector<MeshCandidates>& candidates, std::size_t i, bool thermal,
-    MeshQueryBuffer& buffer, double* block_load, ParticleLoad& load, BoundaryTally& tally) {
+    MeshQueryBuffer& buffer, ExactSum* thread_load, ParticleLoad& load, BoundaryTally& tally) {
   for (std::size_t b = 0; b < scene.boundaries.size(); ++b) {
     const Boundary& boundary = scene.boundaries[b];
-    double* boundary_load = block_load + b * kBoundaryLoadValues;
+    ExactSum* boundary_load = thread_load + b * kBoundaryLoadValues;
     const auto add = [&](const BoundaryContact& contact) {
       // A JKR contact held apart still pulls; it conducts no heat and counts as no contact.
       if (contact.overlap <= 0.0 && !kModels) return;
       const Eigen::Vector3d moment = (contact.point - boundary.center).cross(contact.force);
       for (int axis = 0; axis < 3; ++axis) {
-        boundary_load[axis] += contact.force[axis];
-        boundary_load[3 + axis] += moment[axis];
+        boundary_load[axis].add(contact.force[axis]);
+        boundary_load[3 + axis].add(moment[axis]);
       }
       load.force += contact.force;
       load.torque += contact.torque;
@@ -664,9 +667,9 @@ template <bool kFriction, bool kModels, class Law>
 
 /// Pass 2: total force (and, with kFriction, torque) per particle = gravity + own pairs -
 /// transposed pairs + boundaries. The force and moment of each boundary on the particles are
-/// summed per block of kWallLoadBlock particles into @p wall_forces (kBoundaryLoadValues per block
-/// and boundary): the caller adds the blocks in order, so boundary loads need no per-particle
-/// storage and keep one summation order. In thermal runs the same order sums the heat flows into
+/// summed exactly per thread into @p wall_loads (kBoundaryLoadValues per thread and boundary):
+/// the caller merges the threads' sums, which are the same bytes for any thread count and any
+/// order of the particles. In thermal runs the same order sums the heat flows into
 /// p.heat_rate: contacts, boundaries held at a temperature, convection and radiation (the laser is
 /// added by the caller). @p frames: every boundary's frame_of at its current pose. kModels as in
 /// compute_pair_forces.
@@ -674,11 +677,12 @@ template <bool kFriction, bool kModels, class Law>
 ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborList& list,
                              const std::vector<MeshCandidates>& mesh_candidates,
                              const std::vector<BoundaryFrame>& frames, const Law& law,
-                             const PairForces& pair_forces, std::vector<double>& wall_forces) {
+                             const PairForces& pair_forces, std::vector<ExactSum>& wall_loads) {
   const std::size_t n = p.size();
   const std::size_t boundaries = scene.boundaries.size();
   const std::size_t blocks = (n + kWallLoadBlock - 1) / kWallLoadBlock;
-  wall_forces.assign(blocks * boundaries * kBoundaryLoadValues, 0.0);
+  wall_loads.assign(static_cast<std::size_t>(threads_in_use(n)) * boundaries * kBoundaryLoadValues,
+                    ExactSum{});
   const Eigen::Vector3d g = scene.gravity;
   std::size_t wall_contacts = 0;
   double max_overlap = 0.0;
@@ -690,7 +694,8 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
     reduction(+ : wall_contacts) reduction(max : max_overlap, max_fraction, thermal_ratio)
   for (std::size_t block = 0; block < blocks; ++block) {
     // Without boundaries never written.
-    double* block_load = wall_forces.data() + block * boundaries * kBoundaryLoadValues;
+    ExactSum* thread_load = wall_loads.data() + static_cast<std::size_t>(omp_get_thread_num()) *
+                                                    boundaries * kBoundaryLoadValues;
     BoundaryTally tally;
     thread_local MeshQueryBuffer buffer;  // reused: mesh queries allocate only while it grows
     const std::size_t block_end = std::min(n, (block + 1) * kWallLoadBlock);
@@ -698,7 +703,7 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
       ParticleLoad load{p.mass[i] * g, Eigen::Vector3d::Zero()};
       gather_pairs<kFriction>(p, list, pair_forces, i, thermal, rolling, load);
       gather_boundaries<kFriction, kModels>(p, scene, law, frames, mesh_candidates, i, thermal,
-                                            buffer, block_load, load, tally);
+                                            buffer, thread_load, load, tally);
       if (thermal) {
         exchange_with_surroundings(p, scene, i, load);
         p.heat_rate[i] = load.heat;

@@ -111,7 +111,7 @@ LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* 
                                 const double* radius, std::size_t n, const Laser& laser,
                                 double time, double* heat_rate, LaserPeriods periods) {
   LaserScratch scratch;
-  return deposit_laser_heat(x, y, z, radius, n, laser, time, heat_rate, scratch, periods);
+  return deposit_laser_heat(x, y, z, radius, nullptr, n, laser, time, heat_rate, scratch, periods);
 }
 
 namespace {
@@ -154,9 +154,10 @@ std::size_t column_count(double w, double half, double r_min) {
 }
 
 /// Highest sphere surface over each column centre, splatted candidate by candidate, into
-/// scratch.top with the owning candidate in scratch.owner.
-void splat_tops(const double* z, const double* radius, double half, double h, std::size_t columns,
-                LaserScratch& scratch) {
+/// scratch.top with the owning candidate in scratch.owner; equal tops go to the smaller @p id
+/// (with none, to the earlier candidate).
+void splat_tops(const double* z, const double* radius, const std::int64_t* id, double half,
+                double h, std::size_t columns, LaserScratch& scratch) {
   std::vector<double>& top = scratch.top;
   std::vector<std::size_t>& owner = scratch.owner;
   top.assign(columns * columns, -std::numeric_limits<double>::infinity());
@@ -175,8 +176,10 @@ void splat_tops(const double* z, const double* radius, double half, double h, st
         if (!(d2 < r2)) continue;
         const double height = z[i] + std::sqrt(r2 - d2);
         const std::size_t c = row * columns + col;
-        // Strictly higher only: an equal top keeps the earlier (smaller-index) owner.
-        if (height > top[c]) {
+        // An equal top keeps the earlier (smaller-index) owner unless ids say otherwise.
+        const bool tie_won =
+            id != nullptr && height == top[c] && id[i] < id[scratch.candidates[owner[c]].index];
+        if (height > top[c] || tie_won) {
           top[c] = height;
           owner[c] = slot;
         }
@@ -215,9 +218,9 @@ LaserDeposit share_power(double absorbed_power, double half, double h, double w,
 }  // namespace
 
 LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* z,
-                                const double* radius, std::size_t n, const Laser& laser,
-                                double time, double* heat_rate, LaserScratch& scratch,
-                                LaserPeriods periods) {
+                                const double* radius, const std::int64_t* id, std::size_t n,
+                                const Laser& laser, double time, double* heat_rate,
+                                LaserScratch& scratch, LaserPeriods periods) {
   check_beam(laser);
   if (!(periods.x >= 0.0) || !(periods.y >= 0.0)) {
     throw std::invalid_argument("laser periods must be non-negative (0: not periodic)");
@@ -229,7 +232,7 @@ LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* 
   const double r_min = collect_candidates(x, y, radius, n, *centre, half, periods, scratch);
   const std::size_t columns = column_count(w, half, r_min);
   const double h = 2.0 * half / static_cast<double>(columns);
-  splat_tops(z, radius, half, h, columns, scratch);
+  splat_tops(z, radius, id, half, h, columns, scratch);
   return share_power(laser.absorptivity * laser.power, half, h, w, columns, scratch, heat_rate);
 }
 

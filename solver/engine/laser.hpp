@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 #include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <vector>
 
@@ -93,9 +94,11 @@ struct LaserScratch {
 };
 
 /// deposit_laser_heat with caller-owned buffers: the same result without per-call allocation.
+/// With particle ids @p id, a column whose tops are equal goes to the smaller id instead of the
+/// smaller index, so that the deposit does not depend on the order the particles are stored in.
 LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* z,
-                                const double* radius, std::size_t n, const Laser& laser,
-                                double time, double* heat_rate, LaserScratch& scratch,
-                                LaserPeriods periods = {});
+                                const double* radius, const std::int64_t* id, std::size_t n,
+                                const Laser& laser, double time, double* heat_rate,
+                                LaserScratch& scratch, LaserPeriods periods = {});
 
 }  // namespace bondem

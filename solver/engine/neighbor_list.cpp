@@ -228,7 +228,7 @@ void NeighborList::search_row(const Particles& p, const Domain& domain,
                                  static_cast<std::size_t>(neighbor[2]) * cell_stride_[2];
         for (std::uint32_t k = cell_begin_[cell]; k < cell_begin_[cell + 1]; ++k) {
           const std::uint32_t j = cell_items_[k];
-          if (j <= i) continue;
+          if (p.id[j] <= p.id[i]) continue;
           const double d[3] = {p.x[j] - p.x[i] + shift[0], p.y[j] - p.y[i] + shift[1],
                                p.z[j] - p.z[i] + shift[2]};
           const double reach = p.radius[i] + p.radius[j] + skin;
@@ -241,6 +241,27 @@ void NeighborList::search_row(const Particles& p, const Domain& domain,
     }
   }
 }
+
+namespace {
+
+/// Sorts a row's pairs [@p first, @p second.size()) by the id of their second particle (insertion
+/// sort: a row holds a few pairs), carrying each pair's image code along.
+void sort_row_by_id(const Particles& p, std::size_t first, std::vector<std::uint32_t>& second,
+                    std::vector<std::uint8_t>& image) {
+  for (std::size_t a = first + 1; a < second.size(); ++a) {
+    const std::uint32_t j = second[a];
+    const std::uint8_t code = image[a];
+    std::size_t b = a;
+    for (; b > first && p.id[second[b - 1]] > p.id[j]; --b) {
+      second[b] = second[b - 1];
+      image[b] = image[b - 1];
+    }
+    second[b] = j;
+    image[b] = code;
+  }
+}
+
+}  // namespace
 
 void NeighborList::find_rows(const Particles& p, const Domain& domain, double skin) {
   const std::size_t n = p.size();
@@ -267,6 +288,7 @@ void NeighborList::find_rows(const Particles& p, const Domain& domain, double sk
       if (mine.first_row == n) mine.first_row = i;
       const std::size_t before = mine.second.size();
       search_row(p, domain, length, skin, i, mine.second, mine.image);
+      sort_row_by_id(p, before, mine.second, mine.image);
       row_begin_[i + 1] = static_cast<std::uint32_t>(mine.second.size() - before);
     }
   }
@@ -284,7 +306,7 @@ void NeighborList::find_rows(const Particles& p, const Domain& domain, double sk
   }
 }
 
-void NeighborList::index_columns() {
+void NeighborList::index_columns(const Particles& p) {
   const std::size_t n = row_begin_.size() - 1;
   // Transposed index, count -> scan -> fill in pair order.
   column_begin_.assign(n + 1, 0);
@@ -292,8 +314,30 @@ void NeighborList::index_columns() {
   for (std::size_t i = 0; i < n; ++i) column_begin_[i + 1] += column_begin_[i];
   column_pair_.resize(second_.size());
   cursor_.assign(column_begin_.begin(), column_begin_.end() - 1);
-  for (std::size_t k = 0; k < second_.size(); ++k) {
-    column_pair_[cursor_[second_[k]]++] = static_cast<std::uint32_t>(k);
+  // The first particle of each entry, kept while sorting: columns sort by its id.
+  std::vector<std::uint32_t> first_of(second_.size());
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::uint32_t k = row_begin_[i]; k < row_begin_[i + 1]; ++k) {
+      const std::uint32_t slot = cursor_[second_[k]]++;
+      column_pair_[slot] = k;
+      first_of[slot] = static_cast<std::uint32_t>(i);
+    }
+  }
+  // Each column by the id of the pair's first particle (insertion sort: a column holds a few
+  // pairs), so that a particle's partners come in id order whatever the storage order.
+#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles)
+  for (std::size_t j = 0; j < n; ++j) {
+    for (std::uint32_t a = column_begin_[j] + 1; a < column_begin_[j + 1]; ++a) {
+      const std::uint32_t pair = column_pair_[a];
+      const std::uint32_t first = first_of[a];
+      std::uint32_t b = a;
+      for (; b > column_begin_[j] && p.id[first_of[b - 1]] > p.id[first]; --b) {
+        column_pair_[b] = column_pair_[b - 1];
+        first_of[b] = first_of[b - 1];
+      }
+      column_pair_[b] = pair;
+      first_of[b] = first;
+    }
   }
 }
 
@@ -320,7 +364,7 @@ void NeighborList::build(Particles& p, const Domain& domain, double skin, bool r
     bin(p, domain, cell_size);
   }
   find_rows(p, domain, skin);
-  index_columns();
+  index_columns(p);
 
   x0_ = p.x;
   y0_ = p.y;

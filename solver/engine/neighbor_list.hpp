@@ -21,10 +21,12 @@ struct NeighborListState {
   StaggeredVector<double> x0, y0, z0;
 };
 
-/// Half neighbor list in compressed rows: row i lists the particles j > i whose surfaces were
-/// closer than the skin at the last build, each with the periodic image of j to use.
-/// A transposed index lists, for every particle j, the pairs in which it is the second member, so
-/// that per-pair forces can be gathered per particle in a fixed order.
+/// Half neighbor list in compressed rows: row i lists the particles j of larger id than i whose
+/// surfaces were closer than the skin at the last build, by id, each with the periodic image of j
+/// to use. A transposed index lists, for every particle j, the pairs in which it is the second
+/// member, by the id of the first. Every pair is thus seen from its smaller id and every
+/// particle's pairs come in id order whatever the order the particles are stored in: the forces
+/// are the same bytes after any reordering (and, later, on any domain decomposition).
 class NeighborList {
  public:
   /// Rebuild for the current positions. Wraps periodic coordinates into the domain and, when
@@ -120,8 +122,9 @@ class NeighborList {
   const std::array<Eigen::Vector3d, 27>& shift_table() const { return shifts_; }
 
   /// The pairs of particle @p i: @p as_first(k) for each pair in which it is the first member,
-  /// then @p as_second(k) for each in which it is the second, each in list order. Serial; one
-  /// fixed order per particle, so sums over it are the same bytes for any thread count.
+  /// then @p as_second(k) for each in which it is the second, each by the partner's id. Serial;
+  /// one fixed order per particle, so sums over it are the same bytes for any thread count and
+  /// any storage order.
   template <class AsFirst, class AsSecond>
   [[gnu::always_inline]] void for_each_pair_of(std::size_t i, AsFirst&& as_first,
                                                AsSecond&& as_second) const {
@@ -148,14 +151,16 @@ class NeighborList {
   /// Wrap periodic coordinates into the domain and fill the image shift table.
   void wrap_and_set_shifts(Particles& p, const Domain& domain);
   void bin(const Particles& p, const Domain& domain, double cell_size);
-  /// Append particle i's row (pairs j > i within reach, each with its image code).
+  /// Append particle i's row (pairs with j of larger id within reach, each with its image code),
+  /// in search order.
   void search_row(const Particles& p, const Domain& domain, const Eigen::Vector3d& length,
                   double skin, std::size_t i, std::vector<std::uint32_t>& row_second,
                   std::vector<std::uint8_t>& row_image) const;
   /// All rows, searched in parallel into per-thread buffers and concatenated in particle order.
   void find_rows(const Particles& p, const Domain& domain, double skin);
-  /// The transposed index (pairs by their second particle), count -> scan -> fill.
-  void index_columns();
+  /// The transposed index (pairs by their second particle), count -> scan -> fill, each
+  /// particle's pairs sorted by the id of their first particle.
+  void index_columns(const Particles& p);
   /// Return the grid, which serves only while building.
   void release_scratch();
 

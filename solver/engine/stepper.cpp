@@ -99,7 +99,7 @@ ContactSummary Stepper::evaluate_forces(const Law& law) {
   for (const Boundary& boundary : scene_.boundaries) boundary_frames_.push_back(frame_of(boundary));
   const ContactSummary walls =
       gather_forces<kFriction, kModels>(scene_.particles, scene_, list_, mesh_candidates_,
-                                        boundary_frames_, law, pair_forces_, wall_forces_);
+                                        boundary_frames_, law, pair_forces_, wall_loads_);
   pairs.wall_contacts = walls.wall_contacts;
   pairs.max_overlap = std::max(pairs.max_overlap, walls.max_overlap);
   pairs.max_overlap_fraction = std::max(pairs.max_overlap_fraction, walls.max_overlap_fraction);
@@ -125,12 +125,12 @@ void Stepper::deposit_laser(double laser_time) {
   laser_power_ = laser_missed_power_ = 0.0;
   Particles& p = scene_.particles;
   if (!p.thermal() || !scene_.laser || !std::isfinite(laser_time)) return;
-  // Serial and in index order: the deposit does not depend on the thread count.
+  // Serial, ties by id: the deposit depends on neither the thread count nor the particle order.
   const Domain& domain = scene_.domain;
   const LaserPeriods periods{domain.periodic[0] ? domain.length().x() : 0.0,
                              domain.periodic[1] ? domain.length().y() : 0.0};
   const LaserDeposit deposit =
-      deposit_laser_heat(p.x.data(), p.y.data(), p.z.data(), p.radius.data(), p.size(),
+      deposit_laser_heat(p.x.data(), p.y.data(), p.z.data(), p.radius.data(), p.id.data(), p.size(),
                          *scene_.laser, laser_time, p.heat_rate.data(), laser_scratch_, periods);
   laser_power_ = deposit.absorbed;
   laser_missed_power_ = deposit.missed;
@@ -334,14 +334,16 @@ void Stepper::remove_outside() {
   Particles& p = scene_.particles;
   std::vector<std::uint32_t> kept;
   kept.reserve(p.size());
+  ExactSum mass;  // the same bytes whatever the order of the particles
   for (std::size_t i = 0; i < p.size(); ++i) {
     if (scene_.domain.outside({p.x[i], p.y[i], p.z[i]})) {
       ++removed_.count;
-      removed_.mass += p.mass[i];
+      mass.add(p.mass[i]);
     } else {
       kept.push_back(static_cast<std::uint32_t>(i));
     }
   }
+  if (kept.size() < p.size()) removed_.mass += mass.value();
   // Their pairs' state is left behind by the carry, which finds pairs by ids.
   if (kept.size() < p.size()) p.permute(kept);
 }
@@ -511,34 +513,37 @@ std::vector<BoundaryLoad> Stepper::boundary_loads() const {
   const std::size_t boundaries = scene_.boundaries.size();
   std::vector<BoundaryLoad> totals(boundaries);
   const std::size_t stride = boundaries * kBoundaryLoadValues;
-  if (boundaries == 0 || wall_forces_.size() % stride != 0) return totals;  // not evaluated
-  // Blocks in index order: the same sum whatever the thread count.
-  for (std::size_t block = 0; block < wall_forces_.size() / stride; ++block) {
-    for (std::size_t b = 0; b < boundaries; ++b) {
-      const double* f = &wall_forces_[block * stride + b * kBoundaryLoadValues];
-      totals[b].force -= Eigen::Vector3d(f[0], f[1], f[2]);  // reaction on the boundary
-      totals[b].moment -= Eigen::Vector3d(f[3], f[4], f[5]);
-    }
+  if (boundaries == 0 || wall_loads_.size() % stride != 0) return totals;  // not evaluated
+  // The threads' exact sums merged: the same bytes for any thread count and particle order.
+  std::vector<ExactSum> merged(wall_loads_.begin(), wall_loads_.begin() + stride);
+  for (std::size_t t = 1; t < wall_loads_.size() / stride; ++t) {
+    for (std::size_t v = 0; v < stride; ++v) merged[v] += wall_loads_[t * stride + v];
+  }
+  for (std::size_t b = 0; b < boundaries; ++b) {
+    const ExactSum* f = &merged[b * kBoundaryLoadValues];
+    // The reaction on the boundary.
+    totals[b].force = -Eigen::Vector3d(f[0].value(), f[1].value(), f[2].value());
+    totals[b].moment = -Eigen::Vector3d(f[3].value(), f[4].value(), f[5].value());
   }
   return totals;
 }
 
 double Stepper::kinetic_energy() const {
   const Particles& p = scene_.particles;
-  double energy = 0.0;
+  ExactSum energy;  // exact: the same bytes whatever the order of the particles
   for (std::size_t i = 0; i < p.size(); ++i) {
-    energy += translational_energy(p.mass[i], p.vx[i], p.vy[i], p.vz[i]);
+    energy.add(translational_energy(p.mass[i], p.vx[i], p.vy[i], p.vz[i]));
   }
-  return energy;
+  return energy.value();
 }
 
 double Stepper::rotational_energy() const {
   const Particles& p = scene_.particles;
-  double energy = 0.0;
+  ExactSum energy;
   for (std::size_t i = 0; i < p.size(); ++i) {
-    energy += bondem::rotational_energy(p.inverse_inertia(i), p.wx[i], p.wy[i], p.wz[i]);
+    energy.add(bondem::rotational_energy(p.inverse_inertia(i), p.wx[i], p.wy[i], p.wz[i]));
   }
-  return energy;
+  return energy.value();
 }
 
 }  // namespace bondem

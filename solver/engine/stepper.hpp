@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "solver/engine/contact_kernel.hpp"
+#include "solver/engine/exact_sum.hpp"
 #include "solver/engine/mesh_candidates.hpp"
 #include "solver/engine/neighbor_list.hpp"
 #include "solver/engine/pair_kernel_simd.hpp"
@@ -207,7 +208,7 @@ class Stepper {
   NeighborList list_;
   PairForces pair_forces_;
   PairHistory history_;
-  std::vector<double> wall_forces_;  ///< per block of particles and boundary, last evaluation
+  std::vector<ExactSum> wall_loads_;             ///< per thread and boundary, last evaluation
   std::vector<MeshCandidates> mesh_candidates_;  ///< per boundary; gathered with every list
   std::vector<BoundaryFrame> boundary_frames_;   ///< per boundary, at the last evaluation
   /// Per material pair, the SIMD pass's constants; empty where the run takes the scalar pass
