@@ -66,6 +66,20 @@ class Writer {
     put(static_cast<std::uint64_t>(values.size()));
     append(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(T));
   }
+  /// @p values of @p stride entries per particle, the particles in @p order, as put(values)
+  /// writes them stored in that order.
+  template <class T, class Allocator>
+  void put(const std::vector<T, Allocator>& values, const std::vector<std::uint32_t>& order,
+           std::size_t stride) {
+    put(static_cast<std::uint64_t>(values.size()));
+    if (out_ == nullptr || values.empty()) {
+      size_ += values.size() * sizeof(T);
+      return;
+    }
+    for (const std::uint32_t i : order) {
+      append(reinterpret_cast<const char*>(values.data() + i * stride), stride * sizeof(T));
+    }
+  }
   void put(const std::string& text) {
     put(static_cast<std::uint64_t>(text.size()));
     append(text.data(), text.size());
@@ -506,15 +520,20 @@ void put_payload(Writer& payload, const CheckpointView& checkpoint, std::uint64_
   payload.put(s.contacts.max_overlap_fraction);
   payload.put(s.list.builds);
   payload.put(static_cast<std::uint64_t>(p.size()));
+  const std::vector<std::uint32_t>& by_id = *checkpoint.by_id;
   const auto put_section = [&](CheckpointSection section) {
     for (const ParticleField& field : kParticleFields) {
       if (has(field, kCheckpointed) && checkpoint_section(field) == section) {
-        std::visit([&](auto member) { payload.put(p.*member); }, field.member);
+        std::visit(
+            [&](auto member) { payload.put(p.*member, by_id, values_per_particle(field, p)); },
+            field.member);
       }
     }
   };
   put_section(CheckpointSection::kParticle);
-  for (const StaggeredVector<double>* axis : checkpoint.build_positions) payload.put(*axis);
+  for (const StaggeredVector<double>* axis : checkpoint.build_positions) {
+    payload.put(*axis, by_id, 1);
+  }
   payload.put(static_cast<std::int32_t>(p.walls));
   put_section(CheckpointSection::kWall);
   // Field by field: the struct's padding bytes are not part of the state.
@@ -567,8 +586,9 @@ CheckpointView checkpoint_view(const Checkpoint& checkpoint) {
           checkpoint.material_names,
           {&s.list.x0, &s.list.y0, &s.list.z0},
           [&s](const std::function<void(const SlipRecord&)>& visit) {
-            for (const SlipRecord& slip : s.slips) visit(slip);
-          }};
+            for (const SlipRecord& slip : s.slips) visit(slip);  // by ids (collect_slips)
+          },
+          std::make_shared<const std::vector<std::uint32_t>>(checkpoint.particles.order_by_id())};
 }
 
 CheckpointView checkpoint_view(std::uint64_t case_fingerprint, const Particles& particles,
@@ -576,15 +596,17 @@ CheckpointView checkpoint_view(std::uint64_t case_fingerprint, const Particles& 
                                const std::string& history,
                                const std::vector<std::string>& material_names) {
   const NeighborList& list = stepper.neighbors();
+  auto by_id = std::make_shared<const std::vector<std::uint32_t>>(particles.order_by_id());
   return {case_fingerprint,
           particles,
           state,
           history,
           material_names,
           {&list.build_positions(0), &list.build_positions(1), &list.build_positions(2)},
-          [&stepper](const std::function<void(const SlipRecord&)>& visit) {
-            stepper.for_each_slip(visit);
-          }};
+          [&stepper, by_id](const std::function<void(const SlipRecord&)>& visit) {
+            stepper.for_each_slip(*by_id, visit);
+          },
+          by_id};
 }
 
 void write_checkpoint(const std::string& path, const CheckpointView& checkpoint) {

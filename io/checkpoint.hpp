@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <iterator>
 #include <stdexcept>
 #include <string>
@@ -127,7 +128,9 @@ std::string canonical_case_text(const Case& description);
 std::uint64_t case_fingerprint(const Case& description);
 
 /// Write atomically (temporary file, then rename): magic, version, payload size, payload,
-/// checksum (FNV-1a by 64-bit words). Throws std::runtime_error on I/O failure.
+/// checksum (FNV-1a by 64-bit words). The particles are written by id and the pairs by their
+/// ids, so the file does not depend on the order the run stores them in. Throws
+/// std::runtime_error on I/O failure.
 void write_checkpoint(const std::string& path, const Checkpoint& checkpoint);
 
 /// Calls its argument once with every pair's carried state, in the same order at every call.
@@ -144,8 +147,10 @@ struct CheckpointView {
   const std::vector<std::string>& material_names;  ///< by material index
   /// The neighbor list's build positions, x, y and z.
   std::array<const StaggeredVector<double>*, 3> build_positions;
-  /// The pairs' carried state (a write visits it three times).
+  /// The pairs' carried state (a write visits it three times), by (first id, second id).
   SlipVisitor for_each_slip;
+  /// The particles' order_by_id(): the checkpoint holds them by id, whatever their storage order.
+  std::shared_ptr<const std::vector<std::uint32_t>> by_id;
 };
 
 /// The view of @p checkpoint.

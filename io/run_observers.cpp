@@ -63,11 +63,7 @@ char* write_final_rows(const Particles& p, const std::vector<std::string>& names
 
 void write_final_state(const Particles& p, const std::vector<std::string>& material_names,
                        const std::string& path, const std::vector<int>& bonds) {
-  // Indices fit 32 bits (the neighbor list stores them so): half the memory of size_t.
-  std::vector<std::uint32_t> order(p.size());
-  std::iota(order.begin(), order.end(), std::uint32_t{0});
-  std::sort(order.begin(), order.end(),
-            [&](std::uint32_t a, std::uint32_t b) { return p.id[a] < p.id[b]; });
+  const std::vector<std::uint32_t> order = p.order_by_id();
   AtomicFile file(path);
   std::ostream& out = file.stream();
   const bool thermal = p.thermal() && bonds.size() == p.size();
@@ -301,6 +297,10 @@ void VtkFrames::write(const Scene& scene, const Stepper& stepper) {
     coordination_[j] += 1.0;
     bond_count_[i] += bonded ? 1.0 : 0.0;
     bond_count_[j] += bonded ? 1.0 : 0.0;
+  });
+  // By ids (id_i < id_j: each pair is seen from its smaller id), not in the storage order.
+  std::sort(contacts_.begin(), contacts_.end(), [](const ContactRecord& a, const ContactRecord& b) {
+    return a.id_i != b.id_i ? a.id_i < b.id_i : a.id_j < b.id_j;
   });
   // The particles' own fields come from their table; only the per-frame derived arrays are passed.
   const std::vector<std::string>& derived = derived_arrays();

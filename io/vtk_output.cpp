@@ -135,29 +135,40 @@ vtkIdType vtk_size(std::size_t n) {
   return static_cast<vtkIdType>(n);
 }
 
-/// A one-component Float64 array holding @p values (a vector of doubles, of any allocator).
+/// Index of tuple @p k: order[k], or k itself without an order.
+std::size_t source_index(const std::vector<std::uint32_t>* order, std::size_t k) {
+  return order != nullptr ? (*order)[k] : k;
+}
+
+/// A one-component Float64 array holding @p values (a vector of doubles, of any allocator), in
+/// @p order when given (particle arrays: by id).
 template <class Values>
-vtkSmartPointer<vtkDoubleArray> scalar_array(const std::string& name, const Values& values) {
+vtkSmartPointer<vtkDoubleArray> scalar_array(const std::string& name, const Values& values,
+                                             const std::vector<std::uint32_t>* order = nullptr) {
   auto array = vtkSmartPointer<vtkDoubleArray>::New();
   array->SetName(name.c_str());
   array->SetNumberOfComponents(1);
   array->SetNumberOfTuples(vtk_size(values.size()));
-  for (std::size_t i = 0; i < values.size(); ++i) array->SetValue(vtk_size(i), values[i]);
+  for (std::size_t k = 0; k < values.size(); ++k) {
+    array->SetValue(vtk_size(k), values[source_index(order, k)]);
+  }
   return array;
 }
 
 /// A three-component Float64 array interleaving the SoA components @p x, @p y, @p z (vectors of
-/// doubles, of any allocator).
+/// doubles, of any allocator), in @p order when given.
 template <class Values>
 vtkSmartPointer<vtkDoubleArray> vector_array(const std::string& name, const Values& x,
-                                             const Values& y, const Values& z) {
+                                             const Values& y, const Values& z,
+                                             const std::vector<std::uint32_t>* order = nullptr) {
   auto array = vtkSmartPointer<vtkDoubleArray>::New();
   array->SetName(name.c_str());
   array->SetNumberOfComponents(3);
   array->SetNumberOfTuples(vtk_size(x.size()));
-  for (std::size_t i = 0; i < x.size(); ++i) {
+  for (std::size_t k = 0; k < x.size(); ++k) {
+    const std::size_t i = source_index(order, k);
     const double tuple[3] = {x[i], y[i], z[i]};
-    array->SetTypedTuple(vtk_size(i), tuple);
+    array->SetTypedTuple(vtk_size(k), tuple);
   }
   return array;
 }
@@ -219,24 +230,26 @@ const StaggeredVector<double>& doubles(const Particles& p, const ParticleField& 
   return p.*std::get<StaggeredVector<double> Particles::*>(field.member);
 }
 
-/// The VTK array of table array @p array: Int64, Int32 or Float64 as the member's type.
-vtkSmartPointer<vtkDataArray> make_table_array(const Particles& p, const TableArray& array) {
+/// The VTK array of table array @p array: Int64, Int32 or Float64 as the member's type, the
+/// particles in @p order.
+vtkSmartPointer<vtkDataArray> make_table_array(const Particles& p, const TableArray& array,
+                                               const std::vector<std::uint32_t>& order) {
   const std::string name(array.name);
   if (array.vector) {
     return vector_array(name, doubles(p, *array.rows[0]), doubles(p, *array.rows[1]),
-                        doubles(p, *array.rows[2]));
+                        doubles(p, *array.rows[2]), &order);
   }
   return std::visit(
       [&](auto member) -> vtkSmartPointer<vtkDataArray> {
         const auto& values = p.*member;
         using Value = typename std::remove_reference_t<decltype(values)>::value_type;
-        const auto value = [&](std::size_t i) { return values[i]; };
+        const auto value = [&](std::size_t k) { return values[order[k]]; };
         if constexpr (std::is_same_v<Value, std::int64_t>) {
           return integer_array<vtkTypeInt64Array>(name.c_str(), values.size(), value);
         } else if constexpr (std::is_same_v<Value, std::int32_t>) {
           return integer_array<vtkTypeInt32Array>(name.c_str(), values.size(), value);
         } else {
-          return scalar_array(name, values);
+          return scalar_array(name, values, &order);
         }
       },
       array.rows[0]->member);
@@ -250,13 +263,16 @@ vtkSmartPointer<vtkPolyData> particle_data(const Particles& p,
     return selected.empty() || std::find(selected.begin(), selected.end(), name) != selected.end();
   };
   const std::size_t n = p.size();
+  // Points by id: a frame does not depend on how the run stores the particles.
+  const std::vector<std::uint32_t> by_id = p.order_by_id();
   vtkNew<vtkPoints> points = make_points(n);
   // One vertex cell per particle: ParaView's Points and Surface representations draw only cells.
   vtkNew<vtkCellArray> verts;
   verts->AllocateExact(vtk_size(n), vtk_size(n));
-  for (std::size_t i = 0; i < n; ++i) {
-    points->SetPoint(vtk_size(i), p.x[i], p.y[i], p.z[i]);
-    const vtkIdType point = vtk_size(i);
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::uint32_t i = by_id[k];
+    points->SetPoint(vtk_size(k), p.x[i], p.y[i], p.z[i]);
+    const vtkIdType point = vtk_size(k);
     verts->InsertNextCell(1, &point);
   }
   auto data = vtkSmartPointer<vtkPolyData>::New();
@@ -268,17 +284,17 @@ vtkSmartPointer<vtkPolyData> particle_data(const Particles& p,
   auto next = table.begin();
   const auto add_table_until = [&](int order) {
     for (; next != table.end() && next->order < order; ++next) {
-      if (wanted(next->name)) arrays->AddArray(make_table_array(p, *next));
+      if (wanted(next->name)) arrays->AddArray(make_table_array(p, *next, by_id));
     }
   };
   add_table_until(kVtkDerivedScalarsOrder);
   for (const VtkSeriesWriter::ScalarField& field : scalars) {
-    if (wanted(field.name)) arrays->AddArray(scalar_array(field.name, *field.values));
+    if (wanted(field.name)) arrays->AddArray(scalar_array(field.name, *field.values, &by_id));
   }
   add_table_until(kVtkDerivedVectorsOrder);
   for (const VtkSeriesWriter::VectorField& field : vectors) {
     if (wanted(field.name))
-      arrays->AddArray(vector_array(field.name, *field.x, *field.y, *field.z));
+      arrays->AddArray(vector_array(field.name, *field.x, *field.y, *field.z, &by_id));
   }
   add_table_until(std::numeric_limits<int>::max());
   return data;

@@ -104,14 +104,15 @@ class VtkSeriesWriter {
   /// Write one frame at simulated time @p time, which must be finite and later than the previous
   /// frame's (a .pvd with repeated times is ambiguous in ParaView).
   ///
-  /// particles: points (Float64) with a vertex cell each; a point array for every field of
+  /// particles: points (Float64) with a vertex cell each, by id (a frame does not depend on how
+  ///   the run stores the particles); a point array for every field of
   ///   kParticleFields with a VTK name that the particles have (thermal ones only with
   ///   temperatures), by ascending vtk_order: "id" (Int64), "radius", "velocity" (3 components),
   ///   "force" (3), "material" (Int32), the derived @p scalars, "temperature",
   ///   "peak_temperature", "heat_rate", the derived @p vectors, "angular_velocity", "torque".
   ///   A derived field that is one of the particles' own arrays under its table name is written
   ///   once, at its table place; any other repeated name is refused.
-  /// contacts: one line per record, two points of its own each; cell arrays "overlap",
+  /// contacts: one line per record in the order given, two points of its own each; cell arrays "overlap",
   ///   "normal_force", "bonded" (UInt8), "id_i", "id_j" (Int64), "normal_force_vector" and
   ///   "tangential_force_vector" (the record's force split along and across the line).
   /// bonds (set_bonds_series): the bonded records alone, with the same arrays.

@@ -124,7 +124,7 @@ TEST(InitialState, FromACheckpointTheParticlesTheirSpinsAndTheirSpringsCarryOver
     Scene scene = build_scene(from);
     const Stepper stepper(scene);
     std::map<std::pair<std::int64_t, std::int64_t>, Eigen::Vector3d> by_ids;
-    stepper.for_each_slip([&](const SlipRecord& s) {
+    stepper.for_each_slip(scene.particles.order_by_id(), [&](const SlipRecord& s) {
       by_ids[{s.first_id, s.second_id}] = {s.sx, s.sy, s.sz};
     });
     return by_ids;

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "io/case_file.hpp"
+#include "io/checkpoint.hpp"
 #include "run_helpers.hpp"
 
 namespace bondem {
@@ -17,41 +18,72 @@ namespace {
 
 const char* const kCase = BONDEM_TEST_CASES_DIR "/storage_order.yaml";
 
-/// The bytes of a run's final_state.csv, history.csv and clusters.csv.
-struct RunBytes {
-  std::string final_state, history, clusters;
-};
-
-/// Runs the storage-order case (its text with @p appended) on @p threads threads, reordering the
-/// particles by cell every @p reorder_interval list builds (0: never, insertion order throughout).
-RunBytes run_stored(const std::string& appended, int reorder_interval, int threads,
-                    const std::string& name) {
+/// Runs the storage-order case (its text with @p appended, ending at @p end_time, VTK frames
+/// every millisecond) on @p threads threads into a fresh directory @p name, reordering the
+/// particles by cell every @p reorder_interval list builds (0: never, insertion order throughout);
+/// from @p restart when given. Returns the directory.
+std::filesystem::path run_stored(const std::string& appended, int reorder_interval, int threads,
+                                 const std::string& name, const std::string& end_time = "0.006",
+                                 const std::filesystem::path& restart = {},
+                                 bool keep_directory = false) {
   const Case c = parse_case(testing::file_bytes(kCase) + appended, kCase,
-                            {"neighbors.reorder_interval=" + std::to_string(reorder_interval)});
-  const std::filesystem::path directory = testing::fresh_directory(name);
+                            {"neighbors.reorder_interval=" + std::to_string(reorder_interval),
+                             "time.end=" + end_time, "output.vtk_interval=0.001"});
+  const std::filesystem::path directory =
+      keep_directory ? testing::test_root() / ("bondem_" + name) : testing::fresh_directory(name);
   const int saved = omp_get_max_threads();
   omp_set_num_threads(threads);
-  testing::quiet_run(c, directory);
+  testing::quiet_run(c, directory, restart.string());
   omp_set_num_threads(saved);
-  return {testing::file_bytes(directory / "final_state.csv"),
-          testing::file_bytes(directory / "history.csv"),
-          testing::file_bytes(directory / "clusters.csv")};
+  return directory;
+}
+
+/// The bytes of checkpoint @p path rewritten with the case fingerprint @p fingerprint.
+std::string checkpoint_bytes_with(const std::filesystem::path& path, std::uint64_t fingerprint) {
+  Checkpoint checkpoint = read_checkpoint(path.string());
+  checkpoint.case_fingerprint = fingerprint;
+  const std::filesystem::path copy = path.parent_path() / "refingerprinted.bin";
+  write_checkpoint(copy.string(), checkpoint);
+  std::string bytes = testing::file_bytes(copy);
+  std::filesystem::remove(copy);
+  return bytes;
+}
+
+/// Every file of directory @p a (final state, history, clusters, checkpoint, VTK frames and
+/// series) is in @p b with the same bytes, and @p b has no other. With @p other_fingerprint
+/// (runs of cases that differ in the reordering interval, which the fingerprint covers), the
+/// checkpoints are compared with the same fingerprint.
+void expect_same_files(const std::filesystem::path& a, const std::filesystem::path& b,
+                       const std::string& what, bool other_fingerprint = false) {
+  std::size_t files = 0;
+  for (const std::filesystem::directory_entry& entry : std::filesystem::directory_iterator(a)) {
+    ++files;
+    const std::filesystem::path twin = b / entry.path().filename();
+    if (other_fingerprint && entry.path().filename() == "checkpoint.bin") {
+      EXPECT_TRUE(checkpoint_bytes_with(entry.path(), 1) == checkpoint_bytes_with(twin, 1))
+          << "the checkpoints' states differ, " << what;
+      continue;
+    }
+    EXPECT_TRUE(testing::file_bytes(entry.path()) == testing::file_bytes(twin))
+        << twin.filename() << " differs or is missing, " << what;
+  }
+  EXPECT_EQ(files, static_cast<std::size_t>(std::distance(
+                       std::filesystem::directory_iterator(b), std::filesystem::directory_iterator())))
+      << what;
 }
 
 /// The run stored in insertion order on one thread against runs reordered at every build and
-/// every 3 builds on two threads: the same bytes, no tolerance.
+/// every 3 builds on two threads: every output file the same bytes, no tolerance.
 void expect_same_bytes_in_any_order(const std::string& appended, const std::string& name) {
-  const RunBytes reference = run_stored(appended, 0, 1, name + "_unsorted");
-  ASSERT_GT(reference.final_state.size(), 1100u * 100u);
+  const std::filesystem::path reference = run_stored(appended, 0, 1, name + "_unsorted");
+  ASSERT_GT(testing::file_bytes(reference / "final_state.csv").size(), 1100u * 100u);
+  ASSERT_TRUE(std::filesystem::exists(reference / "checkpoint.bin"));
+  ASSERT_TRUE(std::filesystem::exists(reference / "particles_000006.vtp"));
   for (const int interval : {1, 3}) {
-    const RunBytes sorted =
+    const std::filesystem::path sorted =
         run_stored(appended, interval, 2, name + "_sorted" + std::to_string(interval));
-    EXPECT_TRUE(sorted.final_state == reference.final_state)
-        << "final_state.csv differs, reordering every " << interval << " builds";
-    EXPECT_TRUE(sorted.history == reference.history)
-        << "history.csv differs, reordering every " << interval << " builds";
-    EXPECT_TRUE(sorted.clusters == reference.clusters)
-        << "clusters.csv differs, reordering every " << interval << " builds";
+    expect_same_files(reference, sorted,
+                      "reordering every " + std::to_string(interval) + " builds", true);
   }
 }
 
@@ -70,11 +102,21 @@ TEST(StorageOrder, BondedFrictionalRunIsTheSameBytesInAnyOrder) {
   // The SIMD pair pass, tangential and rolling springs, bonds formed and broken, a periodic x-y
   // plane, a floor and a moving blade (exact boundary loads, energies).
   expect_same_bytes_in_any_order("", "storage_bonded");
-  const RunBytes run = run_stored("", 0, 1, "storage_bonded_check");
-  EXPECT_GT(last_history_value(run.history, "bonds"), 100.0) << "the case must bond";
-  EXPECT_GT(last_history_value(run.history, "bonds_broken"), 10.0) << "and break bonds";
+  const std::string history =
+      testing::file_bytes(testing::test_root() / "bondem_storage_bonded_unsorted" / "history.csv");
+  EXPECT_GT(last_history_value(history, "bonds"), 100.0) << "the case must bond";
+  EXPECT_GT(last_history_value(history, "bonds_broken"), 10.0) << "and break bonds";
   // The blade moves along +x: the particles it pushes load it along -x.
-  EXPECT_LT(last_history_value(run.history, "load_blade_x"), 0.0) << "the blade must push";
+  EXPECT_LT(last_history_value(history, "load_blade_x"), 0.0) << "the blade must push";
+}
+
+TEST(StorageOrder, RestartFromACheckpointByIdContinuesTheSameBytes) {
+  // The checkpoint holds the particles by id; the run that continues it stores them so until
+  // its next reordering, while the uninterrupted run keeps its cell order: every file the same.
+  const std::filesystem::path whole = run_stored("", 1, 2, "storage_restart_whole");
+  const std::filesystem::path resumed = run_stored("", 1, 2, "storage_restart_resumed", "0.0025");
+  run_stored("", 1, 2, "storage_restart_resumed", "0.006", resumed / "checkpoint.bin", true);
+  expect_same_files(whole, resumed, "after a restart");
 }
 
 TEST(StorageOrder, CohesiveRunIsTheSameBytesInAnyOrder) {

@@ -88,6 +88,18 @@ struct Particles {
 
   /// Number of particles.
   std::size_t size() const { return id.size(); }
+  /// The particle indices sorted by id: the order of every output that must not depend on how
+  /// the particles are stored (final state, checkpoint, VTK frames). Indices fit 32 bits (the
+  /// neighbor list stores them so).
+  std::vector<std::uint32_t> order_by_id() const {
+    std::vector<std::uint32_t> order(size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<std::uint32_t>(i);
+    if (!std::is_sorted(id.begin(), id.end())) {
+      std::sort(order.begin(), order.end(),
+                [&](std::uint32_t a, std::uint32_t b) { return id[a] < id[b]; });
+    }
+    return order;
+  }
   /// 1 / m of particle i, computed rather than stored: a division per particle and half-kick is
   /// nothing next to the contacts, and it saves 8 bytes per particle.
   double inverse_mass(std::size_t i) const { return 1.0 / mass[i]; }

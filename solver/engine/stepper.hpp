@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <functional>
 #include <optional>
+#include <span>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -96,9 +97,10 @@ class Stepper {
   StepperState save_state(SavedArrays arrays = SavedArrays::kIncluded) const;
 
   /// Calls @p visit(const SlipRecord&) for every pair that carries state (a spring, an EPSD
-  /// rolling spring, a JKR hold or a bond), in list order: what save_state() puts in slips.
+  /// rolling spring, a JKR hold or a bond): what save_state() puts in slips. With @p rows the
+  /// particles' order_by_id(), by (first id, second id), whatever the storage order.
   template <class Visit>
-  void for_each_slip(Visit&& visit) const;
+  void for_each_slip(std::span<const std::uint32_t> rows, Visit&& visit) const;
 
   /// Free the per-pair forces, torque terms and heat flows of the last evaluation (56 B a pair
   /// with friction; pair_forces() keeps only the bond flags) until the next step() evaluates them
@@ -157,6 +159,9 @@ class Stepper {
   /// The per-pair state (springs, bond flags) of the pairs that have any, keyed by particle ids:
   /// what a checkpoint carries (save_state()).
   std::vector<SlipRecord> collect_slips() const;
+  /// for_each_slip's visit of pair @p k in the row of particle @p i.
+  template <class Visit>
+  void visit_slip(std::size_t i, std::uint32_t k, Visit& visit) const;
   /// The pairs' state on its way across a list build (reordering included) or from a checkpoint:
   /// the pairs that have any, keyed by particle ids, each with its slot in the arrays it came
   /// from. 24 B a pair besides those arrays, which a rebuild moves out of the stepper rather than
@@ -230,27 +235,32 @@ class Stepper {
 };
 
 template <class Visit>
-void Stepper::for_each_slip(Visit&& visit) const {
+void Stepper::for_each_slip(std::span<const std::uint32_t> rows, Visit&& visit) const {
+  // Rows by the id of their particle, each row by partner id: by (first id, second id).
+  const StaggeredVector<std::uint32_t>& row_begin = list_.row_begins();
+  for (const std::uint32_t i : rows) {
+    for (std::uint32_t k = row_begin[i]; k < row_begin[i + 1]; ++k) visit_slip(i, k, visit);
+  }
+}
+
+template <class Visit>
+void Stepper::visit_slip(std::size_t i, std::uint32_t k, Visit& visit) const {
+  if (!carries_state(history_, pair_forces_.bonded, k)) return;
   const Particles& p = scene_.particles;
-  const bool springs = scene_.friction;
-  const bool extended = !history_.joined.empty();
-  list_.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
-    if (!carries_state(history_, pair_forces_.bonded, k)) return;
-    SlipRecord slip{p.id[i], p.id[j], 0.0, 0.0, 0.0};
-    slip.bonded = pair_forces_.bonded[k];
-    if (springs) {
-      slip.sx = history_.sx[k];
-      slip.sy = history_.sy[k];
-      slip.sz = history_.sz[k];
-    }
-    if (extended) {
-      slip.rx = history_.rx[k];
-      slip.ry = history_.ry[k];
-      slip.rz = history_.rz[k];
-      slip.joined = history_.joined[k];
-    }
-    visit(static_cast<const SlipRecord&>(slip));
-  });
+  SlipRecord slip{p.id[i], p.id[list_.second(k)], 0.0, 0.0, 0.0};
+  slip.bonded = pair_forces_.bonded[k];
+  if (scene_.friction) {
+    slip.sx = history_.sx[k];
+    slip.sy = history_.sy[k];
+    slip.sz = history_.sz[k];
+  }
+  if (!history_.joined.empty()) {
+    slip.rx = history_.rx[k];
+    slip.ry = history_.ry[k];
+    slip.rz = history_.rz[k];
+    slip.joined = history_.joined[k];
+  }
+  visit(static_cast<const SlipRecord&>(slip));
 }
 
 }  // namespace bondem
