@@ -112,7 +112,8 @@ class VtkSeriesWriter {
   ///   "peak_temperature", "heat_rate", the derived @p vectors, "angular_velocity", "torque".
   ///   A derived field that is one of the particles' own arrays under its table name is written
   ///   once, at its table place; any other repeated name is refused.
-  /// contacts: one line per record in the order given, two points of its own each; cell arrays "overlap",
+  /// contacts: one line per record in the order given, two points of its own each; cell arrays
+  /// "overlap",
   ///   "normal_force", "bonded" (UInt8), "id_i", "id_j" (Int64), "normal_force_vector" and
   ///   "tangential_force_vector" (the record's force split along and across the line).
   /// bonds (set_bonds_series): the bonded records alone, with the same arrays.

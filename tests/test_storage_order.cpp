@@ -67,8 +67,8 @@ void expect_same_files(const std::filesystem::path& a, const std::filesystem::pa
     EXPECT_TRUE(testing::file_bytes(entry.path()) == testing::file_bytes(twin))
         << twin.filename() << " differs or is missing, " << what;
   }
-  EXPECT_EQ(files, static_cast<std::size_t>(std::distance(
-                       std::filesystem::directory_iterator(b), std::filesystem::directory_iterator())))
+  EXPECT_EQ(files, static_cast<std::size_t>(std::distance(std::filesystem::directory_iterator(b),
+                                                          std::filesystem::directory_iterator())))
       << what;
 }
 
@@ -82,8 +82,8 @@ void expect_same_bytes_in_any_order(const std::string& appended, const std::stri
   for (const int interval : {1, 3}) {
     const std::filesystem::path sorted =
         run_stored(appended, interval, 2, name + "_sorted" + std::to_string(interval));
-    expect_same_files(reference, sorted,
-                      "reordering every " + std::to_string(interval) + " builds", true);
+    expect_same_files(reference, sorted, "reordering every " + std::to_string(interval) + " builds",
+                      true);
   }
 }
 
