@@ -1,0 +1,143 @@
+#include "solver/parallel/decomposition.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+
+namespace bondem {
+
+namespace {
+
+/// What bisect() works on: the particles' coordinates, costs and ids.
+struct Items {
+  std::array<std::span<const double>, 3> coordinate;
+  std::span<const double> cost;
+  std::span<const std::int64_t> id;
+};
+
+/// Builds the subtree of @p ranks subdomains, ranks first_rank.., for particles @p members
+/// inside @p box into @p nodes; returns its root.
+int bisect_node(const Items& items, std::vector<std::uint32_t>& members, const Box& box,
+                int first_rank, int ranks, double min_width, std::vector<BisectionCut>& nodes) {
+  const int node = static_cast<int>(nodes.size());
+  nodes.emplace_back();
+  if (ranks == 1) {
+    nodes[static_cast<std::size_t>(node)].rank = first_rank;
+    return node;
+  }
+  // The longest side that can be cut (ties: x, then y, then z).
+  std::array<int, 3> axes{0, 1, 2};
+  const Eigen::Vector3d side = box.max - box.min;
+  std::stable_sort(axes.begin(), axes.end(), [&](int a, int b) { return side[a] > side[b]; });
+  const int* cuttable =
+      std::find_if(axes.begin(), axes.end(), [&](int a) { return side[a] >= 2.0 * min_width; });
+  if (cuttable == axes.end()) {
+    throw std::invalid_argument("a subdomain of " + std::to_string(side.x()) + " x " +
+                                std::to_string(side.y()) + " x " + std::to_string(side.z()) +
+                                " m cannot be cut into " + std::to_string(ranks) +
+                                " with sides of at least " + std::to_string(min_width) +
+                                " m: too many ranks for this domain");
+  }
+  const int axis = *cuttable;
+  const std::span<const double> coordinate = items.coordinate[static_cast<std::size_t>(axis)];
+  std::sort(members.begin(), members.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return coordinate[a] != coordinate[b] ? coordinate[a] < coordinate[b]
+                                          : items.id[a] < items.id[b];
+  });
+  const int low_ranks = ranks / 2;
+  double total = 0.0;
+  for (const std::uint32_t i : members) total += items.cost[i];
+  const double target = total * low_ranks / ranks;
+  // The split between two distinct coordinates whose low-side cost is nearest the target.
+  const std::size_t n = members.size();
+  std::size_t best = n;
+  double best_miss = std::numeric_limits<double>::infinity();
+  double below = 0.0;
+  for (std::size_t b = 1; b < n; ++b) {
+    below += items.cost[members[b - 1]];
+    if (!(coordinate[members[b - 1]] < coordinate[members[b]])) continue;
+    const double miss = std::abs(below - target);
+    if (miss < best_miss) {
+      best_miss = miss;
+      best = b;
+    }
+  }
+  double position = best < n ? 0.5 * (coordinate[members[best - 1]] + coordinate[members[best]])
+                             : 0.5 * (box.min[axis] + box.max[axis]);
+  // Both sides at least min_width wide (as far as the box allows: it is 2 min_width at least).
+  position = std::clamp(position, box.min[axis] + min_width, box.max[axis] - min_width);
+  const auto split = std::partition_point(
+      members.begin(), members.end(), [&](std::uint32_t i) { return coordinate[i] < position; });
+  std::vector<std::uint32_t> high(split, members.end());
+  members.erase(split, members.end());
+  Box low_box = box, high_box = box;
+  low_box.max[axis] = position;
+  high_box.min[axis] = position;
+  const int low = bisect_node(items, members, low_box, first_rank, low_ranks, min_width, nodes);
+  const int high_node = bisect_node(items, high, high_box, first_rank + low_ranks,
+                                    ranks - low_ranks, min_width, nodes);
+  BisectionCut& cut = nodes[static_cast<std::size_t>(node)];
+  cut.axis = axis;
+  cut.position = position;
+  cut.low = low;
+  cut.high = high_node;
+  return node;
+}
+
+}  // namespace
+
+int Decomposition::owner(double x, double y, double z) const {
+  const double point[3] = {x, y, z};
+  std::size_t node = 0;
+  while (nodes_[node].rank < 0) {
+    const BisectionCut& cut = nodes_[node];
+    node = static_cast<std::size_t>(point[cut.axis] < cut.position ? cut.low : cut.high);
+  }
+  return nodes_[node].rank;
+}
+
+Box Decomposition::box(int rank, const Box& domain) const {
+  Box result = domain;
+  std::size_t node = 0;
+  while (nodes_[node].rank < 0) {
+    const BisectionCut& cut = nodes_[node];
+    // Leaves are numbered depth-first, low side first: the high side's ranks start at the
+    // leaf reached from it by always going low.
+    std::size_t first_high = static_cast<std::size_t>(cut.high);
+    while (nodes_[first_high].rank < 0) {
+      first_high = static_cast<std::size_t>(nodes_[first_high].low);
+    }
+    if (rank < nodes_[first_high].rank) {
+      result.max[cut.axis] = cut.position;
+      node = static_cast<std::size_t>(cut.low);
+    } else {
+      result.min[cut.axis] = cut.position;
+      node = static_cast<std::size_t>(cut.high);
+    }
+  }
+  return result;
+}
+
+Decomposition bisect(std::span<const double> x, std::span<const double> y,
+                     std::span<const double> z, std::span<const double> cost,
+                     std::span<const std::int64_t> id, const Box& domain, int ranks,
+                     double min_width) {
+  if (ranks < 1) throw std::invalid_argument("bisect: ranks must be at least 1");
+  const std::size_t n = x.size();
+  if (y.size() != n || z.size() != n || cost.size() != n || id.size() != n) {
+    throw std::invalid_argument("bisect: coordinates, costs and ids differ in length");
+  }
+  Items items{{x, y, z}, cost, id};
+  std::vector<std::uint32_t> members(n);
+  std::iota(members.begin(), members.end(), std::uint32_t{0});
+  Decomposition d;
+  d.ranks_ = ranks;
+  bisect_node(items, members, domain, 0, ranks, min_width, d.nodes_);
+  return d;
+}
+
+}  // namespace bondem
