@@ -4,14 +4,20 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <algorithm>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <string>
 #include <vector>
 
 #include "io/case_file.hpp"
 #include "io/checkpoint.hpp"
 #include "run_helpers.hpp"
+#include "solver/engine/scene.hpp"
+#include "solver/engine/stepper.hpp"
+#include "solver/parallel/decomposition.hpp"
 
 namespace bondem {
 namespace {
@@ -126,6 +132,96 @@ TEST(StorageOrder, CohesiveRunIsTheSameBytesInAnyOrder) {
       "  - materials: [powder, powder]\n"
       "    cohesion: {model: jkr, surface_energy: 0.05}\n";
   expect_same_bytes_in_any_order(cohesive, "storage_cohesive");
+}
+
+/// Whether the bytes of @p a and @p b are equal (-0.0 and 0.0, or two NaNs, are told apart).
+bool same_bits(double a, double b) {
+  return std::memcmp(&a, &b, sizeof a) == 0;
+}
+
+TEST(Locality, AStepOfASubdomainNeedsOnlyItsHalo) {
+  // What a domain decomposition rests on: the step of the particles a subdomain owns depends on
+  // nothing but them and a halo around them, bit for bit. From a state of the bonded case, the
+  // owned half (a bisection) and its halo are cut out into a scene of their own and stepped once
+  // from the same state; every owned particle must come out the same bytes as in the whole run.
+  // The halo: partners in the list were within r_i + r_j + skin at its build and each has moved
+  // less than half a skin since, so 2 r_max + 2 skin holds them all.
+  const Case c = parse_case(testing::file_bytes(kCase), kCase);
+  Scene whole = build_scene(c);
+  Stepper stepper(whole);
+  for (int s = 0; s < 2500; ++s) stepper.step();
+  ASSERT_GT(stepper.contacts().bonds, 50u);
+  // A step without a rebuild (a rebuild is a global decision: a distributed run takes it for
+  // all ranks at once, which a scene of its own cannot know).
+  StepperState state;
+  Particles before;
+  for (int attempt = 0;; ++attempt) {
+    ASSERT_LT(attempt, 200) << "no step without a rebuild";
+    state = stepper.save_state();
+    before = whole.particles;
+    const std::int64_t builds = stepper.neighbors().build_count();
+    stepper.step();
+    if (stepper.neighbors().build_count() == builds) break;
+  }
+  double r_max = 0.0;
+  for (const double r : before.radius) r_max = std::max(r_max, r);
+  const double halo = 2.0 * r_max + 2.0 * whole.skin;
+  const Box domain{whole.domain.min, whole.domain.max};
+  const std::vector<double> cost(before.size(), 1.0);
+  const Decomposition halves =
+      bisect(before.x, before.y, before.z, cost, before.id, domain, 2, halo);
+  const Box owned = halves.box(0, domain);
+  // Kept: the owned particles and those within the halo of the owned box, periodic images
+  // included (a box test per axis: a superset of the spherical halo).
+  std::vector<std::uint32_t> kept;
+  std::size_t owned_count = 0;
+  for (std::size_t i = 0; i < before.size(); ++i) {
+    const double point[3] = {before.x[i], before.y[i], before.z[i]};
+    bool near = true;
+    for (int a = 0; a < 3 && near; ++a) {
+      double gap = std::numeric_limits<double>::infinity();
+      const double length = whole.domain.length()[a];
+      for (const double shift : {-length, 0.0, length}) {
+        if (!whole.domain.periodic[a] && shift != 0.0) continue;
+        const double u = point[a] + shift;
+        gap = std::min(gap, std::max({owned.min[a] - u, u - owned.max[a], 0.0}));
+      }
+      near = gap < halo;
+    }
+    if (halves.owner(point[0], point[1], point[2]) == 0) ++owned_count;
+    if (near) kept.push_back(static_cast<std::uint32_t>(i));
+  }
+  ASSERT_GT(owned_count, 300u);
+  ASSERT_LT(kept.size(), before.size()) << "the halo must leave particles out";
+  Scene part = build_scene(c);
+  part.particles = before;
+  part.particles.permute(kept);
+  for (StaggeredVector<double>* axis : {&state.list.x0, &state.list.y0, &state.list.z0}) {
+    StaggeredVector<double> subset(kept.size());
+    for (std::size_t k = 0; k < kept.size(); ++k) subset[k] = (*axis)[kept[k]];
+    axis->swap(subset);
+  }
+  Stepper part_stepper(part, std::move(state));
+  part_stepper.step();
+
+  std::map<std::int64_t, std::size_t> index_of;
+  for (std::size_t i = 0; i < whole.particles.size(); ++i) index_of[whole.particles.id[i]] = i;
+  const Particles& p = part.particles;
+  const Particles& q = whole.particles;
+  std::size_t compared = 0;
+  for (std::size_t k = 0; k < p.size(); ++k) {
+    if (halves.owner(before.x[kept[k]], before.y[kept[k]], before.z[kept[k]]) != 0) continue;
+    const std::size_t i = index_of.at(p.id[k]);
+    ++compared;
+    const bool same =
+        same_bits(p.x[k], q.x[i]) && same_bits(p.y[k], q.y[i]) && same_bits(p.z[k], q.z[i]) &&
+        same_bits(p.vx[k], q.vx[i]) && same_bits(p.vy[k], q.vy[i]) && same_bits(p.vz[k], q.vz[i]) &&
+        same_bits(p.wx[k], q.wx[i]) && same_bits(p.wy[k], q.wy[i]) && same_bits(p.wz[k], q.wz[i]) &&
+        same_bits(p.fx[k], q.fx[i]) && same_bits(p.fz[k], q.fz[i]) && same_bits(p.tz[k], q.tz[i]);
+    EXPECT_TRUE(same) << "particle id " << p.id[k];
+    if (!same) break;
+  }
+  EXPECT_EQ(compared, owned_count);
 }
 
 }  // namespace
