@@ -136,5 +136,33 @@ TEST(Bisection, MinimumWidthBoundsTheCutsAndTooManyRanksAreRefused) {
   EXPECT_THROW(sheet.bisect_into(0, slab, 0.2), std::invalid_argument);
 }
 
+TEST(Bisection, SubdomainMembersAreTheOwnedAndTheHaloAcrossPeriodicFaces) {
+  // Evenly spread along x: two ranks cut at x = 0.5 (y and z too short to cut).
+  Cloud line;
+  for (int k = 0; k < 100; ++k) line.add(0.005 + 0.01 * k, 0.05, 0.05, 1.0);
+  Domain domain;
+  domain.max = Eigen::Vector3d(1.0, 0.1, 0.1);
+  const Decomposition d = line.bisect_into(2, Box{domain.min, domain.max}, 0.1);
+  ASSERT_EQ(d.cuts()[0].axis, 0);
+  ASSERT_DOUBLE_EQ(d.cuts()[0].position, 0.5);
+  const auto members = [&](int rank) {
+    std::vector<double> xs;
+    for (const std::uint32_t i : subdomain_members(d, rank, domain, 0.03, line.x, line.y, line.z)) {
+      xs.push_back(line.x[i]);
+    }
+    return xs;
+  };
+  // Closed: rank 0 holds x < 0.5 and the three particles within 0.03 above the cut.
+  std::vector<double> low = members(0);
+  ASSERT_EQ(low.size(), 53u);
+  EXPECT_DOUBLE_EQ(low.back(), 0.525);
+  // Periodic along x: also the three at the far face, within 0.03 of x = 0 through the wrap.
+  domain.periodic[0] = true;
+  low = members(0);
+  ASSERT_EQ(low.size(), 56u);
+  EXPECT_DOUBLE_EQ(low.back(), 0.995);
+  EXPECT_EQ(members(1).size(), 56u);
+}
+
 }  // namespace
 }  // namespace bondem

@@ -170,26 +170,11 @@ TEST(Locality, AStepOfASubdomainNeedsOnlyItsHalo) {
   const std::vector<double> cost(before.size(), 1.0);
   const Decomposition halves =
       bisect(before.x, before.y, before.z, cost, before.id, domain, 2, halo);
-  const Box owned = halves.box(0, domain);
-  // Kept: the owned particles and those within the halo of the owned box, periodic images
-  // included (a box test per axis: a superset of the spherical halo).
-  std::vector<std::uint32_t> kept;
+  const std::vector<std::uint32_t> kept =
+      subdomain_members(halves, 0, whole.domain, halo, before.x, before.y, before.z);
   std::size_t owned_count = 0;
   for (std::size_t i = 0; i < before.size(); ++i) {
-    const double point[3] = {before.x[i], before.y[i], before.z[i]};
-    bool near = true;
-    for (int a = 0; a < 3 && near; ++a) {
-      double gap = std::numeric_limits<double>::infinity();
-      const double length = whole.domain.length()[a];
-      for (const double shift : {-length, 0.0, length}) {
-        if (!whole.domain.periodic[a] && shift != 0.0) continue;
-        const double u = point[a] + shift;
-        gap = std::min(gap, std::max({owned.min[a] - u, u - owned.max[a], 0.0}));
-      }
-      near = gap < halo;
-    }
-    if (halves.owner(point[0], point[1], point[2]) == 0) ++owned_count;
-    if (near) kept.push_back(static_cast<std::uint32_t>(i));
+    owned_count += halves.owner(before.x[i], before.y[i], before.z[i]) == 0 ? 1 : 0;
   }
   ASSERT_GT(owned_count, 300u);
   ASSERT_LT(kept.size(), before.size()) << "the halo must leave particles out";

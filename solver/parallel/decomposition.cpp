@@ -122,6 +122,33 @@ Box Decomposition::box(int rank, const Box& domain) const {
   return result;
 }
 
+std::vector<std::uint32_t> subdomain_members(const Decomposition& decomposition, int rank,
+                                             const Domain& domain, double halo,
+                                             std::span<const double> x, std::span<const double> y,
+                                             std::span<const double> z) {
+  const Box box = decomposition.box(rank, Box{domain.min, domain.max});
+  const Eigen::Vector3d length = domain.length();
+  std::vector<std::uint32_t> members;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const double point[3] = {x[i], y[i], z[i]};
+    bool near = true;
+    if (decomposition.owner(point[0], point[1], point[2]) != rank) {
+      // The gap to the box along each axis, from the nearest periodic image.
+      for (int a = 0; a < 3 && near; ++a) {
+        double gap = std::numeric_limits<double>::infinity();
+        for (const double shift : {-length[a], 0.0, length[a]}) {
+          if (shift != 0.0 && !domain.periodic[static_cast<std::size_t>(a)]) continue;
+          const double u = point[a] + shift;
+          gap = std::min(gap, std::max({box.min[a] - u, u - box.max[a], 0.0}));
+        }
+        near = gap < halo;
+      }
+    }
+    if (near) members.push_back(static_cast<std::uint32_t>(i));
+  }
+  return members;
+}
+
 Decomposition bisect(std::span<const double> x, std::span<const double> y,
                      std::span<const double> z, std::span<const double> cost,
                      std::span<const std::int64_t> id, const Box& domain, int ranks,

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "geometry/box.hpp"
+#include "geometry/domain.hpp"
 
 namespace bondem {
 
@@ -56,5 +57,14 @@ Decomposition bisect(std::span<const double> x, std::span<const double> y,
                      std::span<const double> z, std::span<const double> cost,
                      std::span<const std::int64_t> id, const Box& domain, int ranks,
                      double min_width);
+
+/// The particles rank @p rank needs, in index order: those it owns and those within @p halo of
+/// its subdomain along every axis (periodic images included), a superset of the spheres within
+/// @p halo of it. With @p halo the largest interaction distance plus twice the skin, the step of
+/// every owned particle depends on these alone.
+std::vector<std::uint32_t> subdomain_members(const Decomposition& decomposition, int rank,
+                                             const Domain& domain, double halo,
+                                             std::span<const double> x, std::span<const double> y,
+                                             std::span<const double> z);
 
 }  // namespace bondem
