@@ -6,6 +6,7 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <iomanip>
 #include <iostream>
 #include <optional>
@@ -454,7 +455,28 @@ std::string measured(const std::optional<double>& value, const bondem::PackingRe
   return text.str();
 }
 
+/// The number of processes of the MPI job this process belongs to, from the launcher's
+/// environment (Open MPI sets OMPI_COMM_WORLD_SIZE; MPICH and Slurm, PMI_SIZE): 1 without one.
+long launched_ranks() {
+  for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE"}) {
+    if (const char* value = std::getenv(name)) {
+      char* end = nullptr;
+      const long ranks = std::strtol(value, &end, 10);
+      if (end != value && ranks > 0) return ranks;
+    }
+  }
+  return 1;
+}
+
 int run_run(const RunCommand& o) {
+  // Under `mpirun -np R` each of the R processes would run the whole case into the same
+  // output directory, each clobbering the others' files: refuse before touching anything.
+  if (const long ranks = launched_ranks(); ranks > 1) {
+    throw UsageError("launched as one of " + std::to_string(ranks) +
+                     " MPI processes: distributed runs are not implemented yet (issue 18), and "
+                     "every process would run the whole case into the same output directory; "
+                     "run bondem without mpirun (its threads: --threads)");
+  }
   set_threads(o.threads);
   select_simd(o.simd);
   Case c = o.case_path.empty()

@@ -11,6 +11,7 @@ packages=(
   libyaml-cpp-dev libcli11-dev        # case files, command line
   libgtest-dev libbenchmark-dev       # tests, microbenchmarks
   libhwy-dev                          # Google Highway: the SIMD pair pass, dispatched at run time
+  libopenmpi-dev openmpi-bin          # MPI: distributed runs (issue 18) and their tests
   gnuplot-nox                         # figures of the main job
   # scripts/render-png.py: VTK's Python, and Xvfb as its off-screen X server (Debian's VTK 9.1
   # draws through X11 only: no EGL or OSMesa) with Mesa's llvmpipe; DejaVu for the colour bar
