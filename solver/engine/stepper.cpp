@@ -258,7 +258,7 @@ void Stepper::rebuild_list() {
   build_mesh_candidates(scene_, mesh_candidates_);
 }
 
-void Stepper::drift(double dt) {
+double Stepper::drift(double dt) {
   Particles& p = scene_.particles;
   const double half_dt = 0.5 * dt;
   const std::size_t n = p.size();
@@ -291,15 +291,7 @@ void Stepper::drift(double dt) {
     if (spin) kick_spin(p, i, half_dt);
     largest_sq = std::max(largest_sq, list_.displacement_sq(p, i));
   }
-  // Two particles moving toward each other close the gap by twice the largest displacement:
-  // rebuild once that displacement exceeds half the skin.
-  const bool inserted = !scene_.streams.empty() && insert_from_streams(time_ + dt);
-  const double half_skin = 0.5 * scene_.skin;
-  if (largest_sq > half_skin * half_skin || inserted) {
-    rebuild_list();
-  } else if (mesh_moved_half_skin(scene_, mesh_candidates_)) {
-    build_mesh_candidates(scene_, mesh_candidates_);
-  }
+  return largest_sq;
 }
 
 bool Stepper::finish_step(double dt) {
@@ -360,12 +352,28 @@ bool Stepper::insert_from_streams(double time) {
 }
 
 void Stepper::step() {
-  const double dt = scene_.time_step;
+  // Two particles moving toward each other close the gap by twice the largest displacement:
+  // rebuild once that displacement exceeds half the skin.
+  const double half_skin = 0.5 * scene_.skin;
+  complete_step(move() > half_skin * half_skin);
+}
+
+double Stepper::move() {
   if (pair_forces_.fx.size() != list_.pair_count()) {  // after release_pair_forces()
     pair_forces_.resize(list_.pair_count(), scene_.friction, scene_.rolling(),
                         scene_.particles.thermal());
   }
-  drift(dt);
+  return drift(scene_.time_step);
+}
+
+void Stepper::complete_step(bool rebuild) {
+  const double dt = scene_.time_step;
+  const bool inserted = !scene_.streams.empty() && insert_from_streams(time_ + dt);
+  if (rebuild || inserted) {
+    rebuild_list();
+  } else if (mesh_moved_half_skin(scene_, mesh_candidates_)) {
+    build_mesh_candidates(scene_, mesh_candidates_);
+  }
   // The laser deposits at mid-step, so a beam on for T seconds delivers its power for T seconds
   // to within one step.
   compute_forces(time_ + 0.5 * dt);

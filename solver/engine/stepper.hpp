@@ -88,7 +88,16 @@ class Stepper {
 
   /// One velocity-Verlet step of scene.time_step. Throws BlowUpError, after completing the step,
   /// when a value is not finite or an overlap exceeds scene.max_overlap_fraction of a radius.
+  /// Equal to complete_step(move() > (skin / 2)^2).
   void step();
+
+  /// The first half of step(): the opening half-kicks and the drift. Returns the largest squared
+  /// displacement of a particle since the last list build, so that the parts of a decomposed run
+  /// can agree on a rebuild before any of them takes it.
+  double move();
+  /// The second half of step(): the particles the streams owe, the list rebuilt when @p rebuild
+  /// or a particle was inserted, the forces, the closing half-kicks and the checks of step().
+  void complete_step(bool rebuild);
 
   /// The state to checkpoint together with the particles. With @p arrays kOmitted, the list's
   /// build positions and the pairs' state (StepperState::list.x0..z0 and slips) are left empty: a
@@ -149,9 +158,8 @@ class Stepper {
   ContactSummary evaluate_forces(const Law& law);
   /// The laser's heat deposit of this step into p.heat_rate (thermal runs with a laser).
   void deposit_laser(double laser_time);
-  /// Half kick, drift, the particles of the streams due by the step's end, and a list rebuild
-  /// when some particle has moved half the skin or was inserted.
-  void drift(double dt);
+  /// Half kick and drift; returns the largest squared displacement since the last list build.
+  double drift(double dt);
   /// Insert what the scene's streams owe by @p time; returns whether any particle was added.
   bool insert_from_streams(double time);
   /// Second half kick and the heat step; returns whether every value stayed finite.
