@@ -17,45 +17,13 @@
 #include "solver/engine/scene.hpp"
 #include "solver/engine/stepper.hpp"
 #include "solver/parallel/decomposition.hpp"
+#include "solver/parallel/particle_transfer.hpp"
+#include "solver/parallel/rank_part.hpp"
 
 namespace bondem {
 namespace {
 
-/// Copies every field of particle @p i of @p from to particle @p k of @p to.
-void copy_particle(const Particles& from, std::size_t i, Particles& to, std::size_t k) {
-  for (const ParticleField& field : kParticleFields) {
-    if (!has(field, kReordered)) continue;
-    const std::size_t stride = values_per_particle(field, from);
-    std::visit(
-        [&](auto member) {
-          const auto& source = from.*member;
-          auto& target = to.*member;
-          if (source.empty()) return;  // a field this run does not use
-          std::copy_n(source.begin() + static_cast<std::ptrdiff_t>(i * stride), stride,
-                      target.begin() + static_cast<std::ptrdiff_t>(k * stride));
-        },
-        field.member);
-  }
-}
-
-/// Appends particle @p i of @p from to @p to (every field that @p from uses).
-void append_particle(const Particles& from, std::size_t i, Particles& to) {
-  for (const ParticleField& field : kParticleFields) {
-    if (!has(field, kReordered)) continue;
-    const std::size_t stride = values_per_particle(field, from);
-    std::visit(
-        [&](auto member) {
-          const auto& source = from.*member;
-          auto& target = to.*member;
-          if (source.empty()) return;
-          const auto first = source.begin() + static_cast<std::ptrdiff_t>(i * stride);
-          target.insert(target.end(), first, first + static_cast<std::ptrdiff_t>(stride));
-        },
-        field.member);
-  }
-}
-
-/// The ranks of a decomposed run, each a scene of its own with a stepper.
+/// The ranks of a decomposed run, each a RankPart.
 class DecomposedRun {
  public:
   DecomposedRun(const Case& c, int ranks, const Particles& particles, StepperState state)
@@ -66,10 +34,10 @@ class DecomposedRun {
   /// One step on every rank: the rebuild is taken by all when any needs it.
   void step() {
     double largest = 0.0;
-    for (const auto& stepper : steppers_) largest = std::max(largest, stepper->move());
-    const double half_skin = 0.5 * scenes_.front()->skin;
+    for (const RankPart& part : parts_) largest = std::max(largest, part.stepper->move());
+    const double half_skin = 0.5 * parts_.front().scene->skin;
     const bool rebuild = largest > half_skin * half_skin;
-    for (const auto& stepper : steppers_) stepper->complete_step(rebuild);
+    for (const RankPart& part : parts_) part.stepper->complete_step(rebuild);
     if (rebuild) {
       ++redistributions_;
       gather_and_distribute();
@@ -81,9 +49,9 @@ class DecomposedRun {
   /// Calls @p visit(particles, index) for every particle where its owner holds it.
   template <class Visit>
   void for_each_owned(Visit&& visit) const {
-    for (std::size_t r = 0; r < scenes_.size(); ++r) {
-      for (std::size_t k = 0; k < scenes_[r]->particles.size(); ++k) {
-        if (owned_[r][k]) visit(scenes_[r]->particles, k);
+    for (const RankPart& part : parts_) {
+      for (std::size_t k = 0; k < part.scene->particles.size(); ++k) {
+        if (part.owned[k]) visit(part.scene->particles, k);
       }
     }
   }
@@ -93,92 +61,65 @@ class DecomposedRun {
   std::size_t largest_rank() const { return largest_rank_; }
 
  private:
-  /// Bisects @p all by particle count, gives each rank its owned particles and its halo, and
-  /// starts its stepper from @p state (the list's build positions of @p all, the pairs' state).
-  void distribute(const Particles& all, StepperState state) {
-    double r_max = 0.0;
-    for (const double r : all.radius) r_max = std::max(r_max, r);
-    Scene probe = build_scene(case_);
-    const double halo = 2.0 * r_max + 2.0 * probe.skin;
-    const Box box{probe.domain.min, probe.domain.max};
+  /// Bisects @p all by particle count and gives each rank its part, continuing @p state.
+  void distribute(const Particles& all, const StepperState& state) {
+    const Scene probe = build_scene(case_);
+    const double halo = decomposition_halo(all, probe.skin);
     const std::vector<double> cost(all.size(), 1.0);
-    const Decomposition d = bisect(all.x, all.y, all.z, cost, all.id, box, ranks_, halo);
-    steppers_.clear();
-    scenes_.clear();
-    owned_.clear();
+    const Decomposition d = bisect(all.x, all.y, all.z, cost, all.id,
+                                   Box{probe.domain.min, probe.domain.max}, ranks_, halo);
+    parts_.clear();
     owner_of_.clear();
     largest_rank_ = 0;
     for (int r = 0; r < ranks_; ++r) {
-      const std::vector<std::uint32_t> members =
-          subdomain_members(d, r, probe.domain, halo, all.x, all.y, all.z);
-      auto scene = std::make_unique<Scene>(build_scene(case_));
-      scene->particles = all;
-      scene->particles.permute(members);
-      StepperState part = state;
-      for (StaggeredVector<double>* axis : {&part.list.x0, &part.list.y0, &part.list.z0}) {
-        StaggeredVector<double> subset(members.size());
-        for (std::size_t k = 0; k < members.size(); ++k) subset[k] = (*axis)[members[k]];
-        axis->swap(subset);
+      parts_.push_back(make_rank_part(case_, d, r, halo, all, state));
+      const Particles& p = parts_.back().scene->particles;
+      for (std::size_t k = 0; k < p.size(); ++k) {
+        if (parts_.back().owned[k]) owner_of_[p.id[k]] = {static_cast<std::size_t>(r), k};
       }
-      std::vector<bool> owned(members.size());
-      for (std::size_t k = 0; k < members.size(); ++k) {
-        const std::uint32_t i = members[k];
-        owned[k] = d.owner(all.x[i], all.y[i], all.z[i]) == r;
-        if (owned[k]) owner_of_[all.id[i]] = {static_cast<std::size_t>(r), k};
-      }
-      largest_rank_ = std::max(largest_rank_, members.size());
-      steppers_.push_back(std::make_unique<Stepper>(*scene, std::move(part)));
-      scenes_.push_back(std::move(scene));
-      owned_.push_back(std::move(owned));
+      largest_rank_ = std::max(largest_rank_, p.size());
     }
-    // The restore constructor rebuilt each list without reordering: indices stay as above.
   }
 
   /// Every ghost takes its owner's state (what MPI sends after each step).
   void refresh_ghosts() {
-    for (std::size_t r = 0; r < scenes_.size(); ++r) {
-      Particles& p = scenes_[r]->particles;
+    for (RankPart& part : parts_) {
+      Particles& p = part.scene->particles;
       for (std::size_t k = 0; k < p.size(); ++k) {
-        if (owned_[r][k]) continue;
+        if (part.owned[k]) continue;
         const auto [rank, index] = owner_of_.at(p.id[k]);
-        copy_particle(scenes_[rank]->particles, index, p, k);
+        copy_particle(parts_[rank].scene->particles, index, p, k);
       }
     }
   }
 
   /// After a rebuild: the owned particles of every rank, and the union of the pairs' state,
-  /// distributed anew (a rebuild reorders each rank's particles, so indices are found again).
+  /// distributed anew (a rebuild reorders each rank's particles, so owners are found by id).
   void gather_and_distribute() {
-    Particles all = scenes_.front()->particles;
-    std::vector<std::uint32_t> none;
-    all.permute(none);
+    Particles all = parts_.front().scene->particles;
+    all.permute({});
     std::map<std::pair<std::int64_t, std::int64_t>, SlipRecord> slips;
-    for (std::size_t r = 0; r < scenes_.size(); ++r) {
-      const Particles& p = scenes_[r]->particles;
-      // Ownership by id: the rebuild reordered the rank's particles.
+    for (std::size_t r = 0; r < parts_.size(); ++r) {
+      const Particles& p = parts_[r].scene->particles;
       for (std::size_t k = 0; k < p.size(); ++k) {
-        const auto owner = owner_of_.find(p.id[k]);
-        if (owner->second.first != r) continue;
-        append_particle(p, k, all);
+        if (owner_of_.at(p.id[k]).first == r) append_particle(p, k, all);
       }
-      for (const SlipRecord& slip : steppers_[r]->save_state().slips) {
+      for (const SlipRecord& slip : parts_[r].stepper->save_state().slips) {
         slips[{slip.first_id, slip.second_id}] = slip;
       }
     }
-    StepperState state = steppers_.front()->save_state();
+    StepperState state = parts_.front().stepper->save_state();
     state.list.x0 = all.x;  // the list was built at these positions in this very step
     state.list.y0 = all.y;
     state.list.z0 = all.z;
     state.slips.clear();
     for (const auto& [ids, slip] : slips) state.slips.push_back(slip);
-    distribute(all, std::move(state));
+    distribute(all, state);
   }
 
   Case case_;
   int ranks_;
-  std::vector<std::unique_ptr<Scene>> scenes_;
-  std::vector<std::unique_ptr<Stepper>> steppers_;
-  std::vector<std::vector<bool>> owned_;  ///< per rank, per local index
+  std::vector<RankPart> parts_;
   std::map<std::int64_t, std::pair<std::size_t, std::size_t>> owner_of_;  ///< id -> rank, index
   int redistributions_ = 0;
   std::size_t largest_rank_ = 0;

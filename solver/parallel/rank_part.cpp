@@ -1,0 +1,40 @@
+#include "solver/parallel/rank_part.hpp"
+
+#include <algorithm>
+#include <utility>
+
+namespace bondem {
+
+double decomposition_halo(const Particles& particles, double skin) {
+  double r_max = 0.0;
+  for (const double r : particles.radius) r_max = std::max(r_max, r);
+  return 2.0 * r_max + 2.0 * skin;
+}
+
+RankPart make_rank_part(const Case& c, const Decomposition& decomposition, int rank, double halo,
+                        const Particles& all, const StepperState& state) {
+  RankPart part;
+  part.scene = std::make_unique<Scene>(build_scene(c));
+  const std::vector<std::uint32_t> members =
+      subdomain_members(decomposition, rank, part.scene->domain, halo, all.x, all.y, all.z);
+  part.scene->particles = all;
+  part.scene->particles.permute(members);
+  StepperState restored = state;
+  for (StaggeredVector<double>* axis : {&restored.list.x0, &restored.list.y0, &restored.list.z0}) {
+    StaggeredVector<double> subset(members.size());
+    for (std::size_t k = 0; k < members.size(); ++k) subset[k] = (*axis)[members[k]];
+    axis->swap(subset);
+  }
+  part.owned.resize(members.size());
+  for (std::size_t k = 0; k < members.size(); ++k) {
+    const std::uint32_t i = members[k];
+    part.owned[k] = decomposition.owner(all.x[i], all.y[i], all.z[i]) == rank;
+    if (part.owned[k]) part.owned_ids.push_back(all.id[i]);
+  }
+  std::sort(part.owned_ids.begin(), part.owned_ids.end());
+  // The restore constructor rebuilds the list without reordering: the indices above hold.
+  part.stepper = std::make_unique<Stepper>(*part.scene, std::move(restored));
+  return part;
+}
+
+}  // namespace bondem

@@ -1,0 +1,44 @@
+#pragma once
+/// @file rank_part.hpp
+/// One rank's part of a decomposed run: a scene of its own with the particles it owns and its
+/// halo, and the stepper that advances them.
+
+#include <algorithm>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "solver/engine/scene.hpp"
+#include "solver/engine/stepper.hpp"
+#include "solver/parallel/decomposition.hpp"
+#include "solver/setup/case.hpp"
+
+namespace bondem {
+
+/// The halo of a decomposed run of @p particles: the largest pair reach (2 r_max) plus twice the
+/// @p skin (a partner in the list was within r_i + r_j + skin at the build, and each has moved
+/// less than half a skin since), so that each owned particle's step depends on the halo alone.
+double decomposition_halo(const Particles& particles, double skin);
+
+/// A rank's scene, which of its particles it owns (the rest are ghosts, whose state their
+/// owners send after every step) and its stepper.
+struct RankPart {
+  std::unique_ptr<Scene> scene;
+  /// By index: valid until the next list rebuild, which may reorder the particles.
+  std::vector<bool> owned;
+  std::vector<std::int64_t> owned_ids;  ///< sorted: valid until the next distribution
+  std::unique_ptr<Stepper> stepper;
+
+  /// Whether the particle of id @p id is owned here.
+  bool owns(std::int64_t id) const {
+    return std::binary_search(owned_ids.begin(), owned_ids.end(), id);
+  }
+};
+
+/// Rank @p rank's part of @p all under @p decomposition: the scene of case @p c with the owned
+/// particles and those within @p halo, its stepper continuing @p state (whose list build
+/// positions are those of @p all; its pairs' state is taken by the particles' ids).
+RankPart make_rank_part(const Case& c, const Decomposition& decomposition, int rank, double halo,
+                        const Particles& all, const StepperState& state);
+
+}  // namespace bondem
