@@ -112,6 +112,9 @@ TEST(StorageOrder, BondedFrictionalRunIsTheSameBytesInAnyOrder) {
       testing::file_bytes(testing::test_root() / "bondem_storage_bonded_unsorted" / "history.csv");
   EXPECT_GT(last_history_value(history, "bonds"), 100.0) << "the case must bond";
   EXPECT_GT(last_history_value(history, "bonds_broken"), 10.0) << "and break bonds";
+  // Exact zeros read 0, not -0 (a load is the reaction: subtracted from zero, not negated).
+  EXPECT_EQ(history.find(",-0,"), std::string::npos);
+  EXPECT_EQ(history.find(",-0\n"), std::string::npos);
   // The blade moves along +x: the particles it pushes load it along -x.
   EXPECT_LT(last_history_value(history, "load_blade_x"), 0.0) << "the blade must push";
 }

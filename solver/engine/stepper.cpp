@@ -522,7 +522,9 @@ std::vector<BoundaryLoad> Stepper::boundary_loads() const {
   const std::size_t boundaries = scene_.boundaries.size();
   std::vector<BoundaryLoad> totals(boundaries);
   const std::size_t stride = boundaries * kBoundaryLoadValues;
-  if (boundaries == 0 || wall_loads_.size() % stride != 0) return totals;  // not evaluated
+  if (boundaries == 0 || wall_loads_.empty() || wall_loads_.size() % stride != 0) {
+    return totals;  // not evaluated yet
+  }
   // The threads' exact sums merged: the same bytes for any thread count and particle order.
   std::vector<ExactSum> merged(wall_loads_.begin(), wall_loads_.begin() + stride);
   for (std::size_t t = 1; t < wall_loads_.size() / stride; ++t) {
@@ -530,9 +532,9 @@ std::vector<BoundaryLoad> Stepper::boundary_loads() const {
   }
   for (std::size_t b = 0; b < boundaries; ++b) {
     const ExactSum* f = &merged[b * kBoundaryLoadValues];
-    // The reaction on the boundary.
-    totals[b].force = -Eigen::Vector3d(f[0].value(), f[1].value(), f[2].value());
-    totals[b].moment = -Eigen::Vector3d(f[3].value(), f[4].value(), f[5].value());
+    // The reaction on the boundary; subtracted from zero, so that no load reads -0.
+    totals[b].force -= Eigen::Vector3d(f[0].value(), f[1].value(), f[2].value());
+    totals[b].moment -= Eigen::Vector3d(f[3].value(), f[4].value(), f[5].value());
   }
   return totals;
 }
