@@ -122,25 +122,6 @@ expect_bad_input("'analysis.region': lies outside the domain along x" run ${WORK
 expect_bad_input("mean particle diameters along z; a solid fraction needs at least 3" run
                  ${WORK}/region.yaml --quiet --set analysis.region.max.2=0.004
                  --output ${WORK}/run_region_thin)
-# Launched as one of several MPI processes (issue 18 is not done): each would run the whole case
-# into the same directory. The launcher's environment, then the launcher itself where installed.
-set(ENV{OMPI_COMM_WORLD_SIZE} 3)
-expect_bad_input("launched as one of 3 MPI processes" run ${CASES}/powder_bed_packing_ci.yaml
-                 --quiet --output ${WORK}/run_ranks)
-unset(ENV{OMPI_COMM_WORLD_SIZE})
-find_program(MPIRUN mpirun)
-if(MPIRUN)
-  # Open MPI refuses root without these (CI runs as root).
-  set(ENV{OMPI_ALLOW_RUN_AS_ROOT} 1)
-  set(ENV{OMPI_ALLOW_RUN_AS_ROOT_CONFIRM} 1)
-  execute_process(COMMAND ${MPIRUN} --oversubscribe -np 2 ${BONDEM} run
-                          ${CASES}/powder_bed_packing_ci.yaml --quiet --output ${WORK}/run_mpirun
-                  RESULT_VARIABLE status ERROR_VARIABLE err OUTPUT_VARIABLE out)
-  if(status EQUAL 0)
-    message(FATAL_ERROR "bondem run under mpirun -np 2 should refuse, got exit 0: ${err}")
-  endif()
-  expect_text("${err}" "launched as one of 2 MPI processes" "mpirun -np 2")
-endif()
 file(GLOB run_leftovers ${WORK}/run_*)
 if(run_leftovers)
   message(FATAL_ERROR "refused runs left output behind: ${run_leftovers}")

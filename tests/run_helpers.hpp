@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <csignal>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -11,6 +12,7 @@
 #include <vector>
 
 #include "io/run.hpp"
+#include "solver/engine/particles.hpp"
 
 namespace bondem::testing {
 
@@ -36,6 +38,20 @@ inline std::filesystem::path fresh_directory(const std::string& name) {
   const std::filesystem::path directory = test_root() / ("bondem_" + name);
   std::filesystem::remove_all(directory);
   return directory;
+}
+
+/// Whether the bytes of @p a and @p b are equal (-0.0 and 0.0, or two NaNs, are told apart).
+inline bool same_bits(double a, double b) {
+  return std::memcmp(&a, &b, sizeof a) == 0;
+}
+
+/// Whether particle @p k of @p p has the position, velocity and spin of particle @p i of @p q,
+/// bit for bit.
+inline bool same_motion(const Particles& p, std::size_t k, const Particles& q, std::size_t i) {
+  return same_bits(p.x[k], q.x[i]) && same_bits(p.y[k], q.y[i]) && same_bits(p.z[k], q.z[i]) &&
+         same_bits(p.vx[k], q.vx[i]) && same_bits(p.vy[k], q.vy[i]) &&
+         same_bits(p.vz[k], q.vz[i]) && same_bits(p.wx[k], q.wx[i]) &&
+         same_bits(p.wy[k], q.wy[i]) && same_bits(p.wz[k], q.wz[i]);
 }
 
 /// run_case into @p directory without progress output, optionally from a checkpoint and with a

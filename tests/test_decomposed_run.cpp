@@ -51,7 +51,7 @@ class DecomposedRun {
   void for_each_owned(Visit&& visit) const {
     for (const RankPart& part : parts_) {
       for (std::size_t k = 0; k < part.scene->particles.size(); ++k) {
-        if (part.owned[k]) visit(part.scene->particles, k);
+        if (part.owns(part.scene->particles.id[k])) visit(part.scene->particles, k);
       }
     }
   }
@@ -75,7 +75,7 @@ class DecomposedRun {
       parts_.push_back(make_rank_part(case_, d, r, halo, all, state));
       const Particles& p = parts_.back().scene->particles;
       for (std::size_t k = 0; k < p.size(); ++k) {
-        if (parts_.back().owned[k]) owner_of_[p.id[k]] = {static_cast<std::size_t>(r), k};
+        if (parts_.back().owns(p.id[k])) owner_of_[p.id[k]] = {static_cast<std::size_t>(r), k};
       }
       largest_rank_ = std::max(largest_rank_, p.size());
     }
@@ -86,7 +86,7 @@ class DecomposedRun {
     for (RankPart& part : parts_) {
       Particles& p = part.scene->particles;
       for (std::size_t k = 0; k < p.size(); ++k) {
-        if (part.owned[k]) continue;
+        if (part.owns(p.id[k])) continue;
         const auto [rank, index] = owner_of_.at(p.id[k]);
         copy_particle(parts_[rank].scene->particles, index, p, k);
       }
@@ -98,23 +98,17 @@ class DecomposedRun {
   void gather_and_distribute() {
     Particles all = parts_.front().scene->particles;
     all.permute({});
-    std::map<std::pair<std::int64_t, std::int64_t>, SlipRecord> slips;
-    for (std::size_t r = 0; r < parts_.size(); ++r) {
-      const Particles& p = parts_[r].scene->particles;
+    std::vector<SlipRecord> slips;
+    for (const RankPart& part : parts_) {
+      const Particles& p = part.scene->particles;
       for (std::size_t k = 0; k < p.size(); ++k) {
-        if (owner_of_.at(p.id[k]).first == r) append_particle(p, k, all);
+        if (part.owns(p.id[k])) append_particle(p, k, all);
       }
-      for (const SlipRecord& slip : parts_[r].stepper->save_state().slips) {
-        slips[{slip.first_id, slip.second_id}] = slip;
-      }
+      const std::vector<SlipRecord> held = part.stepper->save_state().slips;
+      slips.insert(slips.end(), held.begin(), held.end());
     }
-    StepperState state = parts_.front().stepper->save_state();
-    state.list.x0 = all.x;  // the list was built at these positions in this very step
-    state.list.y0 = all.y;
-    state.list.z0 = all.z;
-    state.slips.clear();
-    for (const auto& [ids, slip] : slips) state.slips.push_back(slip);
-    distribute(all, state);
+    distribute(all,
+               redistribution_state(parts_.front().stepper->save_state(), all, std::move(slips)));
   }
 
   Case case_;
@@ -124,10 +118,6 @@ class DecomposedRun {
   int redistributions_ = 0;
   std::size_t largest_rank_ = 0;
 };
-
-bool same_bits(double a, double b) {
-  return std::memcmp(&a, &b, sizeof a) == 0;
-}
 
 /// Runs the storage-order case (its text with @p appended) whole and on @p ranks ranks for
 /// @p steps steps; every owned particle must have the whole run's position, velocity and spin.
@@ -150,13 +140,7 @@ ContactSummary expect_decomposed_run_follows(const std::string& appended, int ra
   std::size_t owned = 0, differing = 0;
   parts.for_each_owned([&](const Particles& p, std::size_t k) {
     ++owned;
-    const Particles& q = whole.particles;
-    const std::size_t i = index_of.at(p.id[k]);
-    const bool same =
-        same_bits(p.x[k], q.x[i]) && same_bits(p.y[k], q.y[i]) && same_bits(p.z[k], q.z[i]) &&
-        same_bits(p.vx[k], q.vx[i]) && same_bits(p.vy[k], q.vy[i]) && same_bits(p.vz[k], q.vz[i]) &&
-        same_bits(p.wx[k], q.wx[i]) && same_bits(p.wy[k], q.wy[i]) && same_bits(p.wz[k], q.wz[i]);
-    differing += same ? 0 : 1;
+    differing += testing::same_motion(p, k, whole.particles, index_of.at(p.id[k])) ? 0 : 1;
   });
   EXPECT_EQ(owned, whole.particles.size()) << ranks << " ranks: each particle owned once";
   EXPECT_EQ(differing, 0u) << ranks << " ranks";

@@ -133,34 +133,20 @@ class MpiRankRun {
     Particles all = part_.scene->particles;
     all.permute(std::vector<std::uint32_t>(bytes.size() / record, 0));
     for (std::size_t k = 0; k < all.size(); ++k) unpack_particle(bytes.data() + k * record, all, k);
-    // The pairs' state: the union over the processes (a pair two processes hold is the same).
-    const std::vector<SlipRecord> mine = part_.stepper->save_state().slips;
-    std::vector<char> slip_bytes(mine.size() * sizeof(SlipRecord));
-    std::memcpy(slip_bytes.data(), mine.data(), slip_bytes.size());
+    // The pairs' state of every process (a pair two processes hold is the same).
+    const StepperState mine = part_.stepper->save_state();
+    std::vector<char> slip_bytes(mine.slips.size() * sizeof(SlipRecord));
+    std::memcpy(slip_bytes.data(), mine.slips.data(), slip_bytes.size());
     const std::vector<char> every_slip = all_gathered(slip_bytes);
-    std::map<std::pair<std::int64_t, std::int64_t>, SlipRecord> slips;
-    for (std::size_t at = 0; at < every_slip.size(); at += sizeof(SlipRecord)) {
-      SlipRecord slip;
-      std::memcpy(&slip, every_slip.data() + at, sizeof slip);
-      slips[{slip.first_id, slip.second_id}] = slip;
-    }
-    StepperState state = part_.stepper->save_state();
-    state.list.x0 = all.x;  // the list was built at these positions in this very step
-    state.list.y0 = all.y;
-    state.list.z0 = all.z;
-    state.slips.clear();
-    for (const auto& [ids, slip] : slips) state.slips.push_back(slip);
-    distribute(all, state);
+    std::vector<SlipRecord> slips(every_slip.size() / sizeof(SlipRecord));
+    std::memcpy(slips.data(), every_slip.data(), every_slip.size());
+    distribute(all, redistribution_state(mine, all, std::move(slips)));
   }
 
   Case case_;
   RankPart part_;
   int redistributions_ = 0;
 };
-
-bool same_bits(double a, double b) {
-  return std::memcmp(&a, &b, sizeof a) == 0;
-}
 
 TEST(MpiRun, EveryParticleFollowsTheWholeRunBitForBit) {
   // The bonded, frictional, periodic case with a floor and a moving blade (test_decomposed_run).
@@ -187,12 +173,7 @@ TEST(MpiRun, EveryParticleFollowsTheWholeRunBitForBit) {
   for (std::size_t k = 0; k < p.size(); ++k) {
     if (!run.part().owns(p.id[k])) continue;
     ++owned;
-    const std::size_t i = index_of.at(p.id[k]);
-    const bool same =
-        same_bits(p.x[k], q.x[i]) && same_bits(p.y[k], q.y[i]) && same_bits(p.z[k], q.z[i]) &&
-        same_bits(p.vx[k], q.vx[i]) && same_bits(p.vy[k], q.vy[i]) && same_bits(p.vz[k], q.vz[i]) &&
-        same_bits(p.wx[k], q.wx[i]) && same_bits(p.wy[k], q.wy[i]) && same_bits(p.wz[k], q.wz[i]);
-    differing += same ? 0 : 1;
+    differing += testing::same_motion(p, k, q, index_of.at(p.id[k])) ? 0 : 1;
   }
   long owned_total = 0, differing_total = 0;
   MPI_Allreduce(&owned, &owned_total, 1, MPI_LONG, MPI_SUM, MPI_COMM_WORLD);

@@ -137,11 +137,6 @@ TEST(StorageOrder, CohesiveRunIsTheSameBytesInAnyOrder) {
   expect_same_bytes_in_any_order(cohesive, "storage_cohesive");
 }
 
-/// Whether the bytes of @p a and @p b are equal (-0.0 and 0.0, or two NaNs, are told apart).
-bool same_bits(double a, double b) {
-  return std::memcmp(&a, &b, sizeof a) == 0;
-}
-
 TEST(Locality, AStepOfASubdomainNeedsOnlyItsHalo) {
   // What a domain decomposition rests on: the step of the particles a subdomain owns depends on
   // nothing but them and a halo around them, bit for bit. From a state of the bonded case, the
@@ -201,11 +196,8 @@ TEST(Locality, AStepOfASubdomainNeedsOnlyItsHalo) {
     if (halves.owner(before.x[kept[k]], before.y[kept[k]], before.z[kept[k]]) != 0) continue;
     const std::size_t i = index_of.at(p.id[k]);
     ++compared;
-    const bool same =
-        same_bits(p.x[k], q.x[i]) && same_bits(p.y[k], q.y[i]) && same_bits(p.z[k], q.z[i]) &&
-        same_bits(p.vx[k], q.vx[i]) && same_bits(p.vy[k], q.vy[i]) && same_bits(p.vz[k], q.vz[i]) &&
-        same_bits(p.wx[k], q.wx[i]) && same_bits(p.wy[k], q.wy[i]) && same_bits(p.wz[k], q.wz[i]) &&
-        same_bits(p.fx[k], q.fx[i]) && same_bits(p.fz[k], q.fz[i]) && same_bits(p.tz[k], q.tz[i]);
+    const bool same = testing::same_motion(p, k, q, i) && testing::same_bits(p.fx[k], q.fx[i]) &&
+                      testing::same_bits(p.fz[k], q.fz[i]) && testing::same_bits(p.tz[k], q.tz[i]);
     EXPECT_TRUE(same) << "particle id " << p.id[k];
     if (!same) break;
   }

@@ -81,10 +81,7 @@ PackingReport analyse_packing(const Particles& p, const NeighborList& list, cons
     }
   });
   // Sum in id order, so that the result does not depend on how the particles are stored.
-  std::vector<std::size_t> by_id(n);
-  std::iota(by_id.begin(), by_id.end(), std::size_t{0});
-  std::sort(by_id.begin(), by_id.end(),
-            [&](std::size_t a, std::size_t b) { return p.id[a] < p.id[b]; });
+  const std::vector<std::uint32_t> by_id = p.order_by_id();
 
   PackingReport report;
   double coordination = 0.0;

@@ -25,16 +25,30 @@ RankPart make_rank_part(const Case& c, const Decomposition& decomposition, int r
     for (std::size_t k = 0; k < members.size(); ++k) subset[k] = (*axis)[members[k]];
     axis->swap(subset);
   }
-  part.owned.resize(members.size());
-  for (std::size_t k = 0; k < members.size(); ++k) {
-    const std::uint32_t i = members[k];
-    part.owned[k] = decomposition.owner(all.x[i], all.y[i], all.z[i]) == rank;
-    if (part.owned[k]) part.owned_ids.push_back(all.id[i]);
+  for (const std::uint32_t i : members) {
+    if (decomposition.owner(all.x[i], all.y[i], all.z[i]) == rank) {
+      part.owned_ids.push_back(all.id[i]);
+    }
   }
   std::sort(part.owned_ids.begin(), part.owned_ids.end());
-  // The restore constructor rebuilds the list without reordering: the indices above hold.
   part.stepper = std::make_unique<Stepper>(*part.scene, std::move(restored));
   return part;
+}
+
+StepperState redistribution_state(StepperState state, const Particles& all,
+                                  std::vector<SlipRecord> slips) {
+  state.list.x0 = all.x;
+  state.list.y0 = all.y;
+  state.list.z0 = all.z;
+  const auto key = [](const SlipRecord& s) { return std::pair(s.first_id, s.second_id); };
+  std::sort(slips.begin(), slips.end(),
+            [&](const SlipRecord& a, const SlipRecord& b) { return key(a) < key(b); });
+  slips.erase(
+      std::unique(slips.begin(), slips.end(),
+                  [&](const SlipRecord& a, const SlipRecord& b) { return key(a) == key(b); }),
+      slips.end());
+  state.slips = std::move(slips);
+  return state;
 }
 
 }  // namespace bondem

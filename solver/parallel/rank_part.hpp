@@ -21,11 +21,10 @@ namespace bondem {
 double decomposition_halo(const Particles& particles, double skin);
 
 /// A rank's scene, which of its particles it owns (the rest are ghosts, whose state their
-/// owners send after every step) and its stepper.
+/// owners send after every step) and its stepper. Ownership is kept by id: a list rebuild may
+/// reorder the scene's particles.
 struct RankPart {
   std::unique_ptr<Scene> scene;
-  /// By index: valid until the next list rebuild, which may reorder the particles.
-  std::vector<bool> owned;
   std::vector<std::int64_t> owned_ids;  ///< sorted: valid until the next distribution
   std::unique_ptr<Stepper> stepper;
 
@@ -40,5 +39,13 @@ struct RankPart {
 /// positions are those of @p all; its pairs' state is taken by the particles' ids).
 RankPart make_rank_part(const Case& c, const Decomposition& decomposition, int rank, double halo,
                         const Particles& all, const StepperState& state);
+
+/// The state to distribute @p all from right after a list rebuild: @p state (any rank's: time,
+/// step, boundaries and the build count are the same on all) with the list's build positions set
+/// to the positions of @p all, at which the list was just built, and the pairs' state @p slips
+/// (every rank's, concatenated) sorted by ids with duplicates dropped (ranks that hold the same
+/// pair hold the same state).
+StepperState redistribution_state(StepperState state, const Particles& all,
+                                  std::vector<SlipRecord> slips);
 
 }  // namespace bondem
