@@ -32,6 +32,12 @@
 #include "solver/experiments/collision.hpp"
 #include "solver/models/contact_laws.hpp"
 
+#if defined(BONDEM_WITH_MPI)
+#include <mpi.h>
+
+#include "io/run_mpi.hpp"
+#endif
+
 namespace {
 
 using bondem::Case;
@@ -456,7 +462,8 @@ std::string measured(const std::optional<double>& value, const bondem::PackingRe
 }
 
 /// The number of processes of the MPI job this process belongs to, from the launcher's
-/// environment (Open MPI sets OMPI_COMM_WORLD_SIZE; MPICH and Slurm, PMI_SIZE): 1 without one.
+/// environment (Open MPI sets OMPI_COMM_WORLD_SIZE; MPICH and Slurm, PMI_SIZE); 0 when not
+/// launched by one.
 long launched_ranks() {
   for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE"}) {
     if (const char* value = std::getenv(name)) {
@@ -465,24 +472,32 @@ long launched_ranks() {
       if (end != value && ranks > 0) return ranks;
     }
   }
-  return 1;
+  return 0;
 }
 
+/// Whether this process is one of an MPI job's that runs decomposed (MPI initialized by main).
+bool g_distributed = false;
+/// This process's rank in that job (0 otherwise): only rank 0 prints.
+int g_rank = 0;
+
 int run_run(const RunCommand& o) {
-  // Under `mpirun -np R` each of the R processes would run the whole case into the same
-  // output directory, each clobbering the others' files: refuse before touching anything.
+#if !defined(BONDEM_WITH_MPI)
+  // Each of the R processes would run the whole case into the same output directory, each
+  // clobbering the others' files: refuse before touching anything.
   if (const long ranks = launched_ranks(); ranks > 1) {
     throw UsageError("launched as one of " + std::to_string(ranks) +
-                     " MPI processes: distributed runs are not implemented yet (issue 18), and "
-                     "every process would run the whole case into the same output directory; "
-                     "run bondem without mpirun (its threads: --threads)");
+                     " MPI processes, but this bondem was built without MPI (install "
+                     "libopenmpi-dev and rebuild), and every process would run the whole case "
+                     "into the same output directory; run bondem without mpirun (its threads: "
+                     "--threads)");
   }
+#endif
   set_threads(o.threads);
   select_simd(o.simd);
   Case c = o.case_path.empty()
                ? bondem::parse_case(bondem::kDefaultCase, "<built-in packing case>", o.overrides)
                : bondem::load_case(o.case_path, o.overrides);
-  if (!o.quiet) {
+  if (!o.quiet && g_rank == 0) {
     const int threads = bondem::threads_in_use(c.particles.size());
     std::cerr << "bondem run: " << (o.case_path.empty() ? "built-in packing case" : o.case_path)
               << ", " << c.particles.size() << " particles";
@@ -508,7 +523,14 @@ int run_run(const RunCommand& o) {
   std::signal(SIGTERM, request_stop);
   const std::string directory = o.output.empty() ? c.output_directory : o.output;
   // Moved: the run frees the case's particle list once the scene holds the particles.
+#if defined(BONDEM_WITH_MPI)
+  const bondem::RunResult r = g_distributed
+                                  ? bondem::run_case_distributed(std::move(c), options, std::cerr)
+                                  : bondem::run_case(std::move(c), options, std::cerr);
+  if (g_rank != 0) return 0;  // rank 0 reports the run
+#else
   const bondem::RunResult r = bondem::run_case(std::move(c), options, std::cerr);
+#endif
   std::cout << "output_directory = " << directory << "\n"
             << "particles = " << r.particles << "\n"
             << "steps = " << r.steps << "\n"
@@ -555,6 +577,12 @@ int run_run(const RunCommand& o) {
               << "layer_particles = " << r.layer->particles << "\n";
   }
   return 0;
+}
+
+/// Prints @p prefix and @p error's message on stderr; in a distributed run, where every process
+/// has the same error, on rank 0 only.
+void report(const char* prefix, const std::exception& error) {
+  if (g_rank == 0) std::cerr << prefix << error.what() << "\n";
 }
 
 /// The command line: parse, dispatch, and map each kind of failure to its exit status.
@@ -625,22 +653,23 @@ int run_command_line(int argc, char** argv) {
     if (collide_cmd->parsed()) return run_collide(collide);
     if (run_cmd->parsed()) return run_run(run);
   } catch (const bondem::RunInterrupted& e) {
-    std::cerr << "bondem: " << e.what() << "\n";
-    return 128 + static_cast<int>(g_stop_signal);
+    report("bondem: ", e);
+    // Every process of a distributed run stops, not only those that got the signal.
+    return 128 + static_cast<int>(g_stop_signal != 0 ? g_stop_signal : SIGINT);
   } catch (const bondem::BlowUpError& e) {
-    std::cerr << "bondem: blow-up: " << e.what() << "\n";
+    report("bondem: blow-up: ", e);
     return 3;
   } catch (const bondem::CaseError& e) {
-    std::cerr << "bondem: error: " << e.what() << "\n";
+    report("bondem: error: ", e);
     return kBadInput;
   } catch (const UsageError& e) {
-    std::cerr << "bondem: error: " << e.what() << "\n";
+    report("bondem: error: ", e);
     return kBadInput;
   } catch (const std::invalid_argument& e) {
-    std::cerr << "bondem: error: " << e.what() << "\n";
+    report("bondem: error: ", e);
     return kBadInput;
   } catch (const std::exception& e) {
-    std::cerr << "bondem: failed: " << e.what() << "\n";
+    report("bondem: failed: ", e);
     return 1;
   }
   return 0;
@@ -652,11 +681,24 @@ int main(int argc, char** argv) {
 #if defined(__GLIBC__)
   mallopt(M_MMAP_THRESHOLD, static_cast<int>(bondem::kOwnMappingBytes));
 #endif
+#if defined(BONDEM_WITH_MPI)
+  // Launched by mpirun (any number of processes, one included): a run decomposed over them.
+  if (launched_ranks() > 0) {
+    int provided = 0;  // only the main thread calls MPI
+    MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
+    MPI_Comm_rank(MPI_COMM_WORLD, &g_rank);
+    g_distributed = true;
+  }
+#endif
+  int status = 1;
   // Setting up the options can fail too (memory): no exception may leave main as an abort.
   try {
-    return run_command_line(argc, argv);
+    status = run_command_line(argc, argv);
   } catch (...) {
     std::fputs("bondem: failed: unexpected error while reading the command line\n", stderr);
-    return 1;
   }
+#if defined(BONDEM_WITH_MPI)
+  if (g_distributed) MPI_Finalize();
+#endif
+  return status;
 }

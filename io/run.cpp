@@ -20,6 +20,7 @@
 #include "io/case_file.hpp"
 #include "io/checkpoint.hpp"
 #include "io/run_observers.hpp"
+#include "io/run_plan.hpp"
 #include "solver/driver/history.hpp"
 #include "solver/driver/progress.hpp"
 #include "solver/driver/run_analysis.hpp"
@@ -30,11 +31,7 @@
 #include "solver/setup/message_number.hpp"
 
 namespace bondem {
-namespace {
 
-/// @p history (a checkpoint's history.csv text) without its last row when that row is the end
-/// row of a finished run, at the checkpoint's @p step and @p time but off the grid of one row
-/// every @p every steps: a run straight to a later end has no row there.
 std::string history_without_end_row(const std::string& history, std::int64_t step, double time,
                                     std::int64_t every) {
   if (step % every == 0 || history.size() < 2) return history;
@@ -44,6 +41,8 @@ std::string history_without_end_row(const std::string& history, std::int64_t ste
   const double row_time = std::strtod(history.c_str() + last_row + 1, nullptr);
   return row_time == time ? history.substr(0, last_row + 1) : history;
 }
+
+namespace {
 
 /// What in @p restored does not fit @p scene ("" when all fits): a checkpoint that passes its
 /// checksum and fingerprint may still be forged, and the stepper indexes by these sizes.
@@ -104,8 +103,8 @@ std::string shell_quoted(const std::string& argument) {
   return quoted + "'";
 }
 
-/// The command that continues an interrupted run: the one that started it, with its --restart
-/// (if any) replaced by @p checkpoint_path.
+}  // namespace
+
 std::string resume_command(const RunOptions& options, const Case& description,
                            const std::filesystem::path& directory,
                            const std::string& checkpoint_path) {
@@ -130,6 +129,8 @@ std::string resume_command(const RunOptions& options, const Case& description,
   }
   return command + " --restart " + shell_quoted(checkpoint_path);
 }
+
+namespace {
 
 /// Create @p directory and write and remove a probe file in it, so that an output directory that
 /// cannot be written is refused before step 0 rather than found at the first write. @p key names
@@ -247,23 +248,8 @@ void remove_stale_outputs(const std::filesystem::path& directory, const std::fil
   }
 }
 
-/// What run_case checked and derived from the case and the options before writing anything.
-struct RunPlan {
-  TimeStepLimit limit;     ///< the case's time-step bound and what sets it
-  std::int64_t steps = 0;  ///< the step at time.end
-  std::int64_t history_every = 0;
-  std::int64_t vtk_every = 0;
-  std::int64_t checkpoint_every = 0;
-  std::int64_t state_every = 0;  ///< 0: no state snapshots
-  std::int64_t first_step = 0;   ///< the checkpoint's step on a restart, else 0
-  std::filesystem::path directory;
-  std::string checkpoint_path;
-  std::uint64_t fingerprint = 0;
-  bool restarting = false;
-};
+}  // namespace
 
-/// Check @p description's time step and step count against their limits, and derive the step
-/// count, the output intervals and the output paths. Throws CaseError.
 RunPlan plan_run(const Case& description, const RunOptions& options) {
   RunPlan plan;
   plan.limit = case_time_step_bound(description);
@@ -306,8 +292,6 @@ RunPlan plan_run(const Case& description, const RunOptions& options) {
   return plan;
 }
 
-/// The checkpoint options.restart_path, checked to come from @p description, to fit @p scene and
-/// to end before the plan's last step. Throws CaseError.
 Checkpoint read_fitting_checkpoint(const Case& description, const RunOptions& options,
                                    const RunPlan& plan, const Scene& scene) {
   Checkpoint restored;
@@ -336,8 +320,6 @@ Checkpoint read_fitting_checkpoint(const Case& description, const RunOptions& op
   return restored;
 }
 
-/// Make the output directory this run's, once everything is checked: probe that it can be
-/// written, then remove what an earlier run left (see remove_stale_outputs).
 void prepare_output_directory(const Case& description, const RunOptions& options,
                               const RunPlan& plan) {
   probe_output_directory(plan.directory, options.output_directory.empty()
@@ -357,7 +339,6 @@ void prepare_output_directory(const Case& description, const RunOptions& options
                        keep_states, keep_layers);
 }
 
-/// The message of a blow-up report: @p e, the likely cause, and where the last good state is.
 std::string blow_up_message(const BlowUpError& e, const Case& description, const RunPlan& plan) {
   const double recommended = plan.limit.step;
   std::ostringstream message;
@@ -384,17 +365,12 @@ std::string blow_up_message(const BlowUpError& e, const Case& description, const
   return message.str();
 }
 
-/// Refuses, before any output is written, an output.history_fields name without a column in
-/// this run, an output.vtk_fields name without a particle array, and a restart whose columns differ
-/// from those of the history it continues
-/// (@p restored_history; empty for a fresh run).
-void check_output_fields(const Case& description, const Scene& scene, const Stepper& stepper,
+void check_output_fields(const Case& description, const Scene& scene,
                          const std::string& restored_history) {
-  std::vector<BoundaryLoad> loads;
+  const RunTotals totals;
   std::vector<HistoryColumn> columns;
   try {
-    columns =
-        select_history_columns(history_columns(scene, stepper, loads), description.history_fields);
+    columns = select_history_columns(history_columns(scene, totals), description.history_fields);
   } catch (const std::invalid_argument& e) {
     throw CaseError(description.history_fields_origin + ": " + e.what());
   }
@@ -420,7 +396,6 @@ void check_output_fields(const Case& description, const Scene& scene, const Step
   }
 }
 
-/// What a finished run reports: @p end of @p simulation, with the figures of its analysis.
 RunResult collect_result(const RunEnd& end, const Simulation& simulation,
                          const RunFigures& figures) {
   const Stepper& stepper = simulation.stepper();
@@ -450,6 +425,8 @@ RunResult collect_result(const RunEnd& end, const Simulation& simulation,
   return result;
 }
 
+namespace {
+
 /// Step @p stepper to the plan's end with the run's observers, in the order their files must
 /// appear: progress, history (continuing @p history_text on a restart), last good state, VTK,
 /// checkpoint, analysis, end-of-run files. Throws BlowUpError or RunInterrupted when the run ends
@@ -467,7 +444,7 @@ RunResult simulate(const Case& description, const RunOptions& options, const Run
   // is inside it).
   HistoryFile history_file((plan.directory / "history.csv").string());
   History history(
-      scene, stepper, plan.history_every,
+      scene, plan.history_every,
       [&history_file](const std::string& text) { history_file.append(text); },
       description.history_fields);
   if (plan.restarting) history.continue_from(std::move(history_text));
@@ -533,7 +510,7 @@ RunResult run_case(Case description, const RunOptions& options, std::ostream& lo
   } else {
     stepper.emplace(scene);
   }
-  check_output_fields(description, scene, *stepper, history_text);
+  check_output_fields(description, scene, history_text);
   prepare_output_directory(description, options, plan);
   return simulate(description, options, plan, scene, *stepper, std::move(history_text), log);
 }

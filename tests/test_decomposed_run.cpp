@@ -38,6 +38,7 @@ class DecomposedRun {
     const double half_skin = 0.5 * parts_.front().scene->skin;
     const bool rebuild = largest > half_skin * half_skin;
     for (const RankPart& part : parts_) part.stepper->complete_step(rebuild);
+    sum_shares();  // before a redistribution: new steppers have not evaluated forces
     if (rebuild) {
       ++redistributions_;
       gather_and_distribute();
@@ -55,6 +56,15 @@ class DecomposedRun {
       }
     }
   }
+
+  /// The ranks' shares of the last step's figures, added up (counts and exact sums) or
+  /// maximized (the largest overlaps); bonds formed and broken over the whole run.
+  const ContactSummary& contacts() const { return contacts_; }
+  std::int64_t bonds_formed() const { return bonds_formed_; }
+  std::int64_t bonds_broken() const { return bonds_broken_; }
+  const std::vector<ExactSum>& load_sums() const { return load_sums_; }
+  const ExactSum& kinetic_energy() const { return kinetic_energy_; }
+  const ExactSum& rotational_energy() const { return rotational_energy_; }
 
   int redistributions() const { return redistributions_; }
   /// The most particles a rank held (owned and ghosts) at the last distribution.
@@ -79,6 +89,30 @@ class DecomposedRun {
       }
       largest_rank_ = std::max(largest_rank_, p.size());
     }
+  }
+
+  void sum_shares() {
+    contacts_ = ContactSummary{};
+    load_sums_.clear();
+    kinetic_energy_ = rotational_energy_ = ExactSum{};
+    for (const RankPart& part : parts_) {
+      const ContactSummary& c = part.stepper->contacts();
+      contacts_.contacts += c.contacts;
+      contacts_.bonds += c.bonds;
+      contacts_.wall_contacts += c.wall_contacts;
+      contacts_.bonds_formed += c.bonds_formed;
+      contacts_.bonds_broken += c.bonds_broken;
+      contacts_.max_overlap = std::max(contacts_.max_overlap, c.max_overlap);
+      contacts_.max_overlap_fraction =
+          std::max(contacts_.max_overlap_fraction, c.max_overlap_fraction);
+      const std::vector<ExactSum> loads = part.stepper->boundary_load_sums();
+      load_sums_.resize(loads.size());
+      for (std::size_t v = 0; v < loads.size(); ++v) load_sums_[v] += loads[v];
+      kinetic_energy_ += part.stepper->kinetic_energy_sum();
+      rotational_energy_ += part.stepper->rotational_energy_sum();
+    }
+    bonds_formed_ += static_cast<std::int64_t>(contacts_.bonds_formed);
+    bonds_broken_ += static_cast<std::int64_t>(contacts_.bonds_broken);
   }
 
   /// Every ghost takes its owner's state (what MPI sends after each step).
@@ -117,7 +151,40 @@ class DecomposedRun {
   std::map<std::int64_t, std::pair<std::size_t, std::size_t>> owner_of_;  ///< id -> rank, index
   int redistributions_ = 0;
   std::size_t largest_rank_ = 0;
+  ContactSummary contacts_;
+  std::int64_t bonds_formed_ = 0, bonds_broken_ = 0;
+  std::vector<ExactSum> load_sums_;
+  ExactSum kinetic_energy_, rotational_energy_;
 };
+
+/// Whether the ranks' shares of @p parts add up to the figures of @p whole, bit for bit; what
+/// differs goes to the test's log.
+bool shares_add_up(const DecomposedRun& parts, const Stepper& whole) {
+  const ContactSummary& a = parts.contacts();
+  const ContactSummary& b = whole.contacts();
+  const std::vector<BoundaryLoad> loads = boundary_loads_of(parts.load_sums());
+  const std::vector<BoundaryLoad> expected = whole.boundary_loads();
+  bool same_loads = loads.size() == expected.size();
+  for (std::size_t k = 0; same_loads && k < loads.size(); ++k) {
+    same_loads = loads[k].force == expected[k].force && loads[k].moment == expected[k].moment;
+  }
+  const bool same = a.contacts == b.contacts && a.bonds == b.bonds &&
+                    a.wall_contacts == b.wall_contacts && a.bonds_formed == b.bonds_formed &&
+                    a.bonds_broken == b.bonds_broken && a.max_overlap == b.max_overlap &&
+                    a.max_overlap_fraction == b.max_overlap_fraction &&
+                    parts.bonds_formed() == whole.bonds_formed() &&
+                    parts.bonds_broken() == whole.bonds_broken() && same_loads &&
+                    parts.kinetic_energy().value() == whole.kinetic_energy() &&
+                    parts.rotational_energy().value() == whole.rotational_energy();
+  if (!same) {
+    ADD_FAILURE() << "step " << whole.step_count() << ": contacts " << a.contacts << " vs "
+                  << b.contacts << ", bonds " << a.bonds << " vs " << b.bonds << ", wall contacts "
+                  << a.wall_contacts << " vs " << b.wall_contacts << ", formed "
+                  << parts.bonds_formed() << " vs " << whole.bonds_formed() << ", loads "
+                  << (same_loads ? "equal" : "differ");
+  }
+  return same;
+}
 
 /// Runs the storage-order case (its text with @p appended) whole and on @p ranks ranks for
 /// @p steps steps; every owned particle must have the whole run's position, velocity and spin.
@@ -129,10 +196,16 @@ ContactSummary expect_decomposed_run_follows(const std::string& appended, int ra
   Scene whole = build_scene(c);
   Stepper reference(whole);
   DecomposedRun parts(c, ranks, whole.particles, reference.save_state());
+  // The ranks' shares must add up to the whole run's figures at every step (each pair counted
+  // by the owner of its smaller id, each boundary contact by the particle's owner).
+  int steps_adding_up = 0;
   for (int s = 0; s < steps; ++s) {
     reference.step();
     parts.step();
+    if (steps_adding_up == s) steps_adding_up += shares_add_up(parts, reference) ? 1 : 0;
   }
+  EXPECT_EQ(steps_adding_up, steps) << "the first step whose figures did not add up";
+  EXPECT_GT(reference.bonds_formed(), 0);
   EXPECT_GT(parts.redistributions(), 3) << "the run must rebuild, and so redistribute";
   EXPECT_LT(parts.largest_rank(), whole.particles.size()) << "a rank must hold a part only";
   std::map<std::int64_t, std::size_t> index_of;

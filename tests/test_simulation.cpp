@@ -257,7 +257,7 @@ TEST(History, ExactTextIsPrintfsSeventeenDigits) {
 TEST(History, RowsAtStepZeroEveryIntervalAndTheEnd) {
   Fixture f(7);
   std::string sunk;
-  History history(f.scene, f.stepper, 3, [&](const std::string& text) { sunk += text; });
+  History history(f.scene, 3, [&](const std::string& text) { sunk += text; });
   f.simulation.attach(history);
   f.simulation.run();
   // time, kinetic_energy, rotational_energy, contacts, bonds, bonds_formed, bonds_broken,
@@ -287,7 +287,7 @@ TEST(History, RowsAtStepZeroEveryIntervalAndTheEnd) {
 TEST(History, ARestartContinuesItsTextWithoutARowAtTheStart) {
   Fixture f(4);
   f.stepper.step();
-  History history(f.scene, f.stepper, 100);
+  History history(f.scene, 100);
   history.continue_from("time\n0\n");
   f.simulation.attach(history);
   f.simulation.run();
@@ -302,7 +302,7 @@ TEST(History, ANonFiniteTotalIsABlowUpAndItsRowIsNotWritten) {
   c.particles[0].velocity.x() = 1e200;  // finite, but its kinetic energy is not
   Fixture f(5, c);
   std::string sunk;
-  History history(f.scene, f.stepper, 1, [&](const std::string& text) { sunk += text; });
+  History history(f.scene, 1, [&](const std::string& text) { sunk += text; });
   std::vector<std::string> log;
   Recorder after("after", log);
   f.simulation.attach(history);

@@ -18,65 +18,79 @@ std::string exact_text(double value) {
   return {buffer, write_exact_text(buffer, value)};
 }
 
-std::vector<HistoryColumn> history_columns(const Scene& scene, const Stepper& stepper,
-                                           const std::vector<BoundaryLoad>& loads) {
-  const auto count = [](auto n) { return static_cast<double>(n); };
-  std::vector<HistoryColumn> columns{
-      {"time", "s", [&] { return stepper.time(); }},
-      {"kinetic_energy", "J", [&] { return stepper.kinetic_energy(); }},
-      {"rotational_energy", "J", [&] { return stepper.rotational_energy(); }},
-      {"contacts", "", [&, count] { return count(stepper.contacts().contacts); }},
-      {"bonds", "", [&, count] { return count(stepper.contacts().bonds); }},
-      {"bonds_formed", "", [&, count] { return count(stepper.bonds_formed()); }},
-      {"bonds_broken", "", [&, count] { return count(stepper.bonds_broken()); }},
-      {"wall_contacts", "", [&, count] { return count(stepper.contacts().wall_contacts); }},
-      {"max_overlap", "m", [&] { return stepper.contacts().max_overlap; }}};
-  if (!scene.streams.empty()) {
-    // Particles in the run, and what the streams added: count and mass, all streams together.
-    columns.push_back({"particles", "", [&, count] { return count(scene.particles.size()); }});
-    columns.push_back({"inserted", "", [&, count] {
-                         std::int64_t inserted = 0;
-                         for (const ParticleTally& s : stepper.streams()) inserted += s.count;
-                         return count(inserted);
-                       }});
-    columns.push_back({"inserted_mass", "kg", [&] {
-                         double mass = 0.0;
-                         for (const ParticleTally& s : stepper.streams()) mass += s.mass;
-                         return mass;
-                       }});
+RunTotals run_totals(const Scene& scene, const Stepper& stepper) {
+  RunTotals totals;
+  totals.time = stepper.time();
+  totals.kinetic_energy = stepper.kinetic_energy();
+  totals.rotational_energy = stepper.rotational_energy();
+  totals.contacts = stepper.contacts();
+  totals.bonds_formed = stepper.bonds_formed();
+  totals.bonds_broken = stepper.bonds_broken();
+  totals.particles = scene.particles.size();
+  for (const ParticleTally& s : stepper.streams()) {
+    totals.inserted += s.count;
+    totals.inserted_mass += s.mass;
   }
-  if (scene.domain.remove_outside) {
-    columns.push_back({"removed", "", [&, count] { return count(stepper.removed().count); }});
-    columns.push_back({"removed_mass", "kg", [&] { return stepper.removed().mass; }});
-  }
+  totals.removed = stepper.removed().count;
+  totals.removed_mass = stepper.removed().mass;
   if (scene.particles.thermal()) {
     // A stream's run may start with no particle: the surroundings' temperature stands in.
     const auto& t = scene.particles.temperature;
-    const double ambient = scene.ambient_temperature;
-    columns.push_back({"max_temperature", "K", [&t, ambient] {
-                         return t.empty() ? ambient : *std::max_element(t.begin(), t.end());
-                       }});
-    columns.push_back({"mean_temperature", "K", [&t, ambient] {
-                         if (t.empty()) return ambient;
-                         ExactSum sum;  // exact: any thread count and any particle order
-                         for (const double value : t) sum.add(value);
-                         return sum.value() / static_cast<double>(t.size());
-                       }});
-    columns.push_back({"laser_energy", "J", [&] { return stepper.laser_energy(); }});
+    totals.max_temperature = scene.ambient_temperature;
+    totals.mean_temperature = scene.ambient_temperature;
+    if (!t.empty()) {
+      totals.max_temperature = *std::max_element(t.begin(), t.end());
+      ExactSum sum;  // exact: any thread count and any particle order
+      for (const double value : t) sum.add(value);
+      totals.mean_temperature = sum.value() / static_cast<double>(t.size());
+    }
+    totals.laser_energy = stepper.laser_energy();
+  }
+  totals.loads = stepper.boundary_loads();
+  return totals;
+}
+
+std::vector<HistoryColumn> history_columns(const Scene& scene, const RunTotals& totals) {
+  const auto count = [](auto n) { return static_cast<double>(n); };
+  const RunTotals& t = totals;
+  std::vector<HistoryColumn> columns{
+      {"time", "s", [&t] { return t.time; }},
+      {"kinetic_energy", "J", [&t] { return t.kinetic_energy; }},
+      {"rotational_energy", "J", [&t] { return t.rotational_energy; }},
+      {"contacts", "", [&t, count] { return count(t.contacts.contacts); }},
+      {"bonds", "", [&t, count] { return count(t.contacts.bonds); }},
+      {"bonds_formed", "", [&t, count] { return count(t.bonds_formed); }},
+      {"bonds_broken", "", [&t, count] { return count(t.bonds_broken); }},
+      {"wall_contacts", "", [&t, count] { return count(t.contacts.wall_contacts); }},
+      {"max_overlap", "m", [&t] { return t.contacts.max_overlap; }}};
+  if (!scene.streams.empty()) {
+    // Particles in the run, and what the streams added: count and mass, all streams together.
+    columns.push_back({"particles", "", [&t, count] { return count(t.particles); }});
+    columns.push_back({"inserted", "", [&t, count] { return count(t.inserted); }});
+    columns.push_back({"inserted_mass", "kg", [&t] { return t.inserted_mass; }});
+  }
+  if (scene.domain.remove_outside) {
+    columns.push_back({"removed", "", [&t, count] { return count(t.removed); }});
+    columns.push_back({"removed_mass", "kg", [&t] { return t.removed_mass; }});
+  }
+  if (scene.particles.thermal()) {
+    columns.push_back({"max_temperature", "K", [&t] { return t.max_temperature; }});
+    columns.push_back({"mean_temperature", "K", [&t] { return t.mean_temperature; }});
+    columns.push_back({"laser_energy", "J", [&t] { return t.laser_energy; }});
   }
   // The force the particles exert on each boundary, then its moment about its reference point.
   for (std::size_t k = 0; k < scene.boundaries.size(); ++k) {
     const std::string& name = scene.boundaries[k].name;
     for (const int axis : {0, 1, 2}) {
       columns.push_back({"load_" + name + "_" + "xyz"[axis], "N",
-                         [&loads, k, axis] { return loads[k].force[axis]; }});
+                         [&t, k, axis] { return t.loads[k].force[axis]; }});
     }
   }
   for (std::size_t k = 0; k < scene.boundaries.size(); ++k) {
     const std::string& name = scene.boundaries[k].name;
     for (const int axis : {0, 1, 2}) {
       columns.push_back({"moment_" + name + "_" + "xyz"[axis], "N m",
-                         [&loads, k, axis] { return loads[k].moment[axis]; }});
+                         [&t, k, axis] { return t.loads[k].moment[axis]; }});
     }
   }
   return columns;
@@ -109,9 +123,9 @@ std::vector<HistoryColumn> select_history_columns(std::vector<HistoryColumn> col
   return selected;
 }
 
-History::History(const Scene& scene, const Stepper& stepper, std::int64_t every, Sink sink,
+History::History(const Scene& scene, std::int64_t every, Sink sink,
                  const std::vector<std::string>& fields)
-    : columns_(select_history_columns(history_columns(scene, stepper, loads_), fields)),
+    : columns_(select_history_columns(history_columns(scene, totals_), fields)),
       every_(every),
       sink_(std::move(sink)),
       text_(history_header(columns_)) {}
@@ -153,7 +167,13 @@ BlowUpError non_finite_history(const Simulation& simulation, const std::string& 
 }  // namespace
 
 void History::record(const Simulation& simulation) {
-  loads_ = simulation.stepper().boundary_loads();
+  const std::string non_finite =
+      add_row(simulation.step(), run_totals(simulation.scene(), simulation.stepper()));
+  if (!non_finite.empty()) throw non_finite_history(simulation, non_finite);
+}
+
+std::string History::add_row(std::int64_t step, const RunTotals& totals) {
+  totals_ = totals;
   std::ostringstream row;
   std::string non_finite;  // the first column that is not finite
   for (const HistoryColumn& column : columns_) {
@@ -165,11 +185,12 @@ void History::record(const Simulation& simulation) {
     }
   }
   row << '\n';
-  if (!non_finite.empty()) throw non_finite_history(simulation, non_finite);
+  if (!non_finite.empty()) return non_finite;
   const std::string line = row.str();
   text_ += line;
-  last_row_step_ = simulation.step();
+  last_row_step_ = step;
   if (sink_) sink_(line);
+  return "";
 }
 
 }  // namespace bondem

@@ -9,6 +9,8 @@
 #include <vector>
 
 #include "solver/driver/simulation.hpp"
+#include "solver/engine/contact_kernel.hpp"
+#include "solver/engine/stepper.hpp"
 
 namespace bondem {
 
@@ -31,11 +33,33 @@ struct HistoryColumn {
   std::function<double()> value;
 };
 
-/// The columns of the history, declared once: the header and every row come from this list.
-/// Counts are exact in a double (below 2^53) and print as integers. @p loads must hold the
-/// boundary loads of the row being written (Stepper::boundary_loads(), read once per row).
-std::vector<HistoryColumn> history_columns(const Scene& scene, const Stepper& stepper,
-                                           const std::vector<BoundaryLoad>& loads);
+/// What a history row reads: the run's totals at one step. A run in one process takes them from
+/// its scene and stepper (run_totals()); a decomposed run adds up its ranks' shares.
+struct RunTotals {
+  double time = 0.0;
+  double kinetic_energy = 0.0;     ///< [J]
+  double rotational_energy = 0.0;  ///< [J]
+  ContactSummary contacts;         ///< of the last force evaluation
+  std::int64_t bonds_formed = 0;   ///< so far
+  std::int64_t bonds_broken = 0;
+  std::size_t particles = 0;
+  std::int64_t inserted = 0;     ///< by all streams together, so far
+  double inserted_mass = 0.0;    ///< [kg]
+  std::int64_t removed = 0;      ///< for leaving the domain, so far
+  double removed_mass = 0.0;     ///< [kg]
+  double max_temperature = 0.0;  ///< [K] (thermal runs; the surroundings' with no particle)
+  double mean_temperature = 0.0;
+  double laser_energy = 0.0;        ///< absorbed so far [J]
+  std::vector<BoundaryLoad> loads;  ///< per boundary, of the last force evaluation
+};
+
+/// The totals of @p scene stepped by @p stepper (all of its particles: a run in one process).
+RunTotals run_totals(const Scene& scene, const Stepper& stepper);
+
+/// The columns of the history of @p scene, declared once: the header and every row come from
+/// this list, which reads @p totals (those of the row being written). Counts are exact in a
+/// double (below 2^53) and print as integers.
+std::vector<HistoryColumn> history_columns(const Scene& scene, const RunTotals& totals);
 
 /// The columns of @p columns named in @p names, in that order after `time` (always first; listed
 /// or not); empty @p names: all. Throws std::invalid_argument, listing the columns there are, for
@@ -56,9 +80,9 @@ class History : public Observer {
   /// Receives the text as it grows: at start() the text so far, then each row.
   using Sink = std::function<void(const std::string& text)>;
 
-  /// Columns of @p scene stepped by @p stepper (those named in @p fields, select_history_columns);
-  /// the text starts with the header.
-  History(const Scene& scene, const Stepper& stepper, std::int64_t every, Sink sink = {},
+  /// Columns of @p scene (those named in @p fields, select_history_columns), their rows from the
+  /// simulation's run_totals(); the text starts with the header.
+  History(const Scene& scene, std::int64_t every, Sink sink = {},
           const std::vector<std::string>& fields = {});
 
   /// Continue @p text (a restarted run's history, header included) instead of the header alone.
@@ -71,6 +95,11 @@ class History : public Observer {
   /// The columns, in order.
   const std::vector<HistoryColumn>& columns() const { return columns_; }
 
+  /// Append the row of @p totals at step @p step (what after_step() does with run_totals(); a
+  /// decomposed run passes its ranks' totals). Returns "" or, when a value is not finite,
+  /// "column = value unit" of the first such column, and the row is not written.
+  std::string add_row(std::int64_t step, const RunTotals& totals);
+
   void start(const Simulation& simulation) override;
   void after_step(const Simulation& simulation) override;
 
@@ -78,7 +107,7 @@ class History : public Observer {
   /// Append the row of the current state. Throws BlowUpError on a value that is not finite.
   void record(const Simulation& simulation);
 
-  std::vector<BoundaryLoad> loads_;  ///< of the row being written; the columns read it
+  RunTotals totals_;  ///< of the row being written; the columns read it
   std::vector<HistoryColumn> columns_;
   std::int64_t every_;
   Sink sink_;

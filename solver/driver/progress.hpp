@@ -18,6 +18,9 @@ class Progress : public Observer {
   Progress(std::ostream& log, bool quiet);
 
   void start(const Simulation& simulation) override;
+  /// Rates in particle-steps of @p particles from now on (start() takes the scene's count): a
+  /// decomposed run's process holds a part of the particles.
+  void count_particles(std::size_t particles) { particles_ = static_cast<double>(particles); }
   void after_step(const Simulation& simulation) override;
   /// Ends the line rewritten in place, so that what follows starts on its own line.
   void interrupted(const Simulation& simulation, const Interruption& why) override;

@@ -272,10 +272,14 @@ inline constexpr std::size_t kPairPassChunk = 64;
 /// resistance, and torques are stored; without it that code is compiled out. With kModels (some
 /// material pair has cohesion or EPSD rolling: Particles::contact_history) the pairs also carry
 /// the JKR flag and the EPSD spring in @p history; without it that code is compiled out.
+/// @param counted per particle, 1 where the pairs in its row count in the summary's contacts,
+/// bonds, formed and broken bonds (a decomposed run's rank counts the pairs whose first particle
+/// it owns); null: all count. The largest overlaps take every pair.
 template <bool kFriction, bool kModels, class Law>
 ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const NeighborList& list,
                                    const Law& law, const BondingCriterion& criterion_met,
-                                   PairForces& out, PairHistory& history) {
+                                   PairForces& out, PairHistory& history,
+                                   const std::uint8_t* counted = nullptr) {
   const std::size_t n = p.size();
   std::size_t contacts = 0;
   std::size_t bonds = 0;
@@ -302,7 +306,9 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
                   !(kModels && history.joined[k] != 0 &&
                     g.overlap >
                         separation_overlap(scene.pair(p.material[i], p.material[j]), g.r_star))) {
-                broken += release_pair<kFriction, kModels>(k, thermal, rolling, out, history);
+                const std::size_t released =
+                    release_pair<kFriction, kModels>(k, thermal, rolling, out, history);
+                broken += counted == nullptr || counted[i] != 0 ? released : 0;
                 return;
               }
               const bool was_bonded = out.bonded[k] != 0;
@@ -310,12 +316,13 @@ ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const
               const ContactNormal f =
                   evaluate_pair<kFriction, kModels>(p, scene, law, c, g, criterion_met(c, i, j, k),
                                                     i, j, k, thermal, rolling, out, history);
+              max_overlap = std::max(max_overlap, g.overlap);
+              max_fraction = std::max(max_fraction, g.overlap / std::min(p.radius[i], p.radius[j]));
+              if (counted != nullptr && counted[i] == 0) return;
               formed += f.bonded && !was_bonded ? 1 : 0;
               broken += !f.bonded && was_bonded ? 1 : 0;
               ++contacts;
               bonds += f.bonded ? 1 : 0;
-              max_overlap = std::max(max_overlap, g.overlap);
-              max_fraction = std::max(max_fraction, g.overlap / std::min(p.radius[i], p.radius[j]));
             });
   }
   ContactSummary summary;
@@ -672,12 +679,14 @@ template <bool kFriction, bool kModels, class Law>
 /// order of the particles. In thermal runs the same order sums the heat flows into
 /// p.heat_rate: contacts, boundaries held at a temperature, convection and radiation (the laser is
 /// added by the caller). @p frames: every boundary's frame_of at its current pose. kModels as in
-/// compute_pair_forces.
+/// compute_pair_forces. With @p counted (as in compute_pair_forces), only the particles marked 1
+/// add to the boundary loads and the boundary contacts; the largest overlaps take every particle.
 template <bool kFriction, bool kModels, class Law>
 ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborList& list,
                              const std::vector<MeshCandidates>& mesh_candidates,
                              const std::vector<BoundaryFrame>& frames, const Law& law,
-                             const PairForces& pair_forces, std::vector<ExactSum>& wall_loads) {
+                             const PairForces& pair_forces, std::vector<ExactSum>& wall_loads,
+                             const std::uint8_t* counted = nullptr) {
   const std::size_t n = p.size();
   const std::size_t boundaries = scene.boundaries.size();
   const std::size_t blocks = (n + kWallLoadBlock - 1) / kWallLoadBlock;
@@ -697,13 +706,18 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
     ExactSum* thread_load = wall_loads.data() + static_cast<std::size_t>(omp_get_thread_num()) *
                                                     boundaries * kBoundaryLoadValues;
     BoundaryTally tally;
+    BoundaryTally uncounted;  // of particles another rank counts: only its maxima are kept
     thread_local MeshQueryBuffer buffer;  // reused: mesh queries allocate only while it grows
+    thread_local std::vector<ExactSum> uncounted_load;
+    if (counted != nullptr) uncounted_load.resize(boundaries * kBoundaryLoadValues);
     const std::size_t block_end = std::min(n, (block + 1) * kWallLoadBlock);
     for (std::size_t i = block * kWallLoadBlock; i < block_end; ++i) {
       ParticleLoad load{p.mass[i] * g, Eigen::Vector3d::Zero()};
       gather_pairs<kFriction>(p, list, pair_forces, i, thermal, rolling, load);
+      const bool counts = counted == nullptr || counted[i] != 0;
       gather_boundaries<kFriction, kModels>(p, scene, law, frames, mesh_candidates, i, thermal,
-                                            buffer, thread_load, load, tally);
+                                            buffer, counts ? thread_load : uncounted_load.data(),
+                                            load, counts ? tally : uncounted);
       if (thermal) {
         exchange_with_surroundings(p, scene, i, load);
         p.heat_rate[i] = load.heat;
@@ -721,8 +735,8 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
       }
     }
     wall_contacts += tally.contacts;
-    max_overlap = std::max(max_overlap, tally.max_overlap);
-    max_fraction = std::max(max_fraction, tally.max_fraction);
+    max_overlap = std::max({max_overlap, tally.max_overlap, uncounted.max_overlap});
+    max_fraction = std::max({max_fraction, tally.max_fraction, uncounted.max_fraction});
   }
   ContactSummary summary;
   summary.wall_contacts = wall_contacts;

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <tuple>
 
 namespace bondem {
 
@@ -57,6 +58,28 @@ class ExactSum {
     special_ += copy.special_;
     pending_ = 1;  // each digit now holds two normalized digits at most: normalize soon enough
     return *this;
+  }
+
+  /// Digits of the sum in a form whose elementwise integer sums (an MPI_SUM over processes) are
+  /// the digits of the sums' sum: each in [0, 2^32), the top one signed.
+  using Digits = std::array<std::int64_t, 68>;
+
+  /// The normalized digits (see Digits) and, apart, the sum of the infinities and NaNs added.
+  Digits digits() const {
+    ExactSum copy = *this;
+    copy.normalize();
+    return copy.digits_;
+  }
+  /// The sum of the infinities and NaNs added (0 when none was).
+  double special() const { return special_; }
+  /// The sum whose digits() are @p digits (any sum of digits() of at most 2^30 sums) and whose
+  /// special() is @p special.
+  static ExactSum from_digits(const Digits& digits, double special) {
+    ExactSum sum;
+    sum.digits_ = digits;
+    sum.special_ = special;
+    sum.pending_ = kMaxPending - 1;  // normalize at the next term: the digits may be large
+    return sum;
   }
 
   /// The sum rounded once to the nearest double (ties to even); overflow gives an infinity.
@@ -111,6 +134,7 @@ class ExactSum {
   /// for carries: 68 digits.
   static constexpr std::size_t kDigits = 68;
   static constexpr int kMaxPending = 1 << 30;
+  static_assert(std::tuple_size_v<Digits> == kDigits);
 
   /// Carries every digit's excess into the next, leaving digits in [0, 2^32) below the top one.
   void normalize() {

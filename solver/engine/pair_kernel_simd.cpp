@@ -34,6 +34,8 @@ struct LanePassArgs {
   const double* shift_x;  ///< periodic shifts by image code (NeighborList::shift_table)
   const double* shift_y;
   const double* shift_z;
+  /// Per particle, 1 where the pairs in its row are counted in the summary; null: all are.
+  const std::uint8_t* counted;
 };
 }  // namespace bondem::detail
 #endif
@@ -412,9 +414,15 @@ ContactSummary LanePass(const detail::LanePassArgs& a, std::size_t first_row,
     for (std::uint32_t s = 0; s < count; ++s) {
       const std::uint8_t now = b.bonded[s] > 0.0 ? 1 : 0;
       const std::uint8_t before = out.bonded[block + s];
+      out.bonded[block + s] = now;
+      if (a.counted != nullptr && a.counted[b.first[s]] == 0) {
+        // Another rank counts this pair: take back what the lanes tallied of it.
+        tally.contacts -= b.overlap[s] > 0.0 ? 1 : 0;
+        tally.bonds -= now;
+        continue;
+      }
       summary.bonds_formed += now > before ? 1 : 0;
       summary.bonds_broken += now < before ? 1 : 0;
-      out.bonded[block + s] = now;
     }
   }
   summary.contacts = tally.contacts;
@@ -552,7 +560,7 @@ std::vector<LanePairConstants> lane_pair_constants(const Scene& scene) {
 ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const NeighborList& list,
                                 std::span<const LanePairConstants> constants,
                                 const BondingCriterion& criterion_met, PairForces& out,
-                                PairHistory& history) {
+                                PairHistory& history, const std::uint8_t* counted) {
   simd_target_in_use();  // chooses the best target on first use
   double shift_x[27], shift_y[27], shift_z[27];
   for (std::size_t code = 0; code < 27; ++code) {
@@ -579,7 +587,8 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
                                   uniform_criterion,
                                   shift_x,
                                   shift_y,
-                                  shift_z};
+                                  shift_z,
+                                  counted};
   const auto pass = scene.friction ? HWY_DYNAMIC_DISPATCH(LanePassWithFriction)
                                    : HWY_DYNAMIC_DISPATCH(LanePassWithoutFriction);
   const std::size_t n = p.size();

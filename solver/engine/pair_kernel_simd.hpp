@@ -69,10 +69,11 @@ struct LanePairConstants {
 std::vector<LanePairConstants> lane_pair_constants(const Scene& scene);
 
 /// Pass 1 as compute_pair_forces<kFriction = scene.friction, kModels = false> with the Hertz +
-/// bond law, in lanes of the selected target. Requires simd_pass_applies(scene).
+/// bond law, in lanes of the selected target. Requires simd_pass_applies(scene). @p counted as
+/// in compute_pair_forces.
 ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const NeighborList& list,
                                 std::span<const LanePairConstants> constants,
                                 const BondingCriterion& criterion_met, PairForces& out,
-                                PairHistory& history);
+                                PairHistory& history, const std::uint8_t* counted = nullptr);
 
 }  // namespace bondem

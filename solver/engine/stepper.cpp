@@ -87,19 +87,20 @@ template <bool kFriction, bool kModels, class Law>
 ContactSummary Stepper::evaluate_forces(const Law& law) {
   const BondingCriterion criterion{scene_.particles, pair_forces_.bonded,
                                    pair_flag_ ? &pair_flag_ : nullptr};
+  const std::uint8_t* counted = counted_.empty() ? nullptr : counted_.data();
   // The SIMD pass serves the runs whose every pair has a vector form (lane_constants_ is set).
   const bool lanes = !kModels && std::is_same_v<Law, BondNormalLaw> && !lane_constants_.empty();
   ContactSummary pairs =
       lanes ? simd_pair_forces(scene_.particles, scene_, list_, lane_constants_, criterion,
-                               pair_forces_, history_)
+                               pair_forces_, history_, counted)
             : compute_pair_forces<kFriction, kModels>(scene_.particles, scene_, list_, law,
-                                                      criterion, pair_forces_, history_);
+                                                      criterion, pair_forces_, history_, counted);
   // The boundaries' frames at their poses of this step, into storage kept across steps.
   boundary_frames_.clear();
   for (const Boundary& boundary : scene_.boundaries) boundary_frames_.push_back(frame_of(boundary));
   const ContactSummary walls =
       gather_forces<kFriction, kModels>(scene_.particles, scene_, list_, mesh_candidates_,
-                                        boundary_frames_, law, pair_forces_, wall_loads_);
+                                        boundary_frames_, law, pair_forces_, wall_loads_, counted);
   pairs.wall_contacts = walls.wall_contacts;
   pairs.max_overlap = std::max(pairs.max_overlap, walls.max_overlap);
   pairs.max_overlap_fraction = std::max(pairs.max_overlap_fraction, walls.max_overlap_fraction);
@@ -254,6 +255,7 @@ void Stepper::rebuild_list() {
   CarriedPairs carried = release_pairs();
   if (scene_.domain.remove_outside) remove_outside();
   list_.build(scene_.particles, scene_.domain, list_reach(), reorder);
+  mark_counted();  // the particles may have moved
   carry_pairs(std::move(carried));
   build_mesh_candidates(scene_, mesh_candidates_);
 }
@@ -518,20 +520,23 @@ StepperState Stepper::save_state(SavedArrays arrays) const {
   return state;
 }
 
-std::vector<BoundaryLoad> Stepper::boundary_loads() const {
-  const std::size_t boundaries = scene_.boundaries.size();
-  std::vector<BoundaryLoad> totals(boundaries);
-  const std::size_t stride = boundaries * kBoundaryLoadValues;
-  if (boundaries == 0 || wall_loads_.empty() || wall_loads_.size() % stride != 0) {
-    return totals;  // not evaluated yet
+std::vector<ExactSum> Stepper::boundary_load_sums() const {
+  const std::size_t stride = scene_.boundaries.size() * kBoundaryLoadValues;
+  if (stride == 0 || wall_loads_.empty() || wall_loads_.size() % stride != 0) {
+    return {};  // not evaluated yet
   }
   // The threads' exact sums merged: the same bytes for any thread count and particle order.
   std::vector<ExactSum> merged(wall_loads_.begin(), wall_loads_.begin() + stride);
   for (std::size_t t = 1; t < wall_loads_.size() / stride; ++t) {
     for (std::size_t v = 0; v < stride; ++v) merged[v] += wall_loads_[t * stride + v];
   }
-  for (std::size_t b = 0; b < boundaries; ++b) {
-    const ExactSum* f = &merged[b * kBoundaryLoadValues];
+  return merged;
+}
+
+std::vector<BoundaryLoad> boundary_loads_of(const std::vector<ExactSum>& sums) {
+  std::vector<BoundaryLoad> totals(sums.size() / kBoundaryLoadValues);
+  for (std::size_t b = 0; b < totals.size(); ++b) {
+    const ExactSum* f = &sums[b * kBoundaryLoadValues];
     // The reaction on the boundary; subtracted from zero, so that no load reads -0.
     totals[b].force -= Eigen::Vector3d(f[0].value(), f[1].value(), f[2].value());
     totals[b].moment -= Eigen::Vector3d(f[3].value(), f[4].value(), f[5].value());
@@ -539,22 +544,41 @@ std::vector<BoundaryLoad> Stepper::boundary_loads() const {
   return totals;
 }
 
-double Stepper::kinetic_energy() const {
+ExactSum Stepper::kinetic_energy_sum() const {
   const Particles& p = scene_.particles;
   ExactSum energy;  // exact: the same bytes whatever the order of the particles
   for (std::size_t i = 0; i < p.size(); ++i) {
+    if (!counted_.empty() && counted_[i] == 0) continue;
     energy.add(translational_energy(p.mass[i], p.vx[i], p.vy[i], p.vz[i]));
   }
-  return energy.value();
+  return energy;
 }
 
-double Stepper::rotational_energy() const {
+ExactSum Stepper::rotational_energy_sum() const {
   const Particles& p = scene_.particles;
   ExactSum energy;
   for (std::size_t i = 0; i < p.size(); ++i) {
+    if (!counted_.empty() && counted_[i] == 0) continue;
     energy.add(bondem::rotational_energy(p.inverse_inertia(i), p.wx[i], p.wy[i], p.wz[i]));
   }
-  return energy.value();
+  return energy;
+}
+
+void Stepper::count_only(std::vector<std::int64_t> owned_ids) {
+  counted_ids_ = std::move(owned_ids);
+  mark_counted();
+}
+
+void Stepper::mark_counted() {
+  if (counted_ids_.empty()) {
+    counted_.clear();
+    return;
+  }
+  const Particles& p = scene_.particles;
+  counted_.resize(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    counted_[i] = std::binary_search(counted_ids_.begin(), counted_ids_.end(), p.id[i]) ? 1 : 0;
+  }
 }
 
 }  // namespace bondem

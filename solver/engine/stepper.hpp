@@ -47,6 +47,9 @@ struct BoundaryLoad {
   Eigen::Vector3d moment = Eigen::Vector3d::Zero();  ///< about Boundary::center [N m]
 };
 
+/// The loads of boundary_load_sums() @p sums (the reaction: minus the sums, never -0).
+std::vector<BoundaryLoad> boundary_loads_of(const std::vector<ExactSum>& sums);
+
 /// Values of one boundary in StepperState::boundaries.
 inline constexpr std::size_t kBoundaryStateValues = 8;
 
@@ -130,12 +133,30 @@ class Stepper {
   /// Tangential spring elongations, indexed like the neighbor list.
   const PairHistory& pair_history() const { return history_; }
   /// Load on each boundary (minus what it exerts on the particles): force, and moment about its
-  /// reference point, from the last force evaluation, summed in particle index order.
-  std::vector<BoundaryLoad> boundary_loads() const;
-  /// Kinetic energy of translation, summed in index order [J].
-  double kinetic_energy() const;
-  /// Kinetic energy of rotation, summed in index order [J].
-  double rotational_energy() const;
+  /// reference point, from the last force evaluation, summed exactly (any order, any threads).
+  std::vector<BoundaryLoad> boundary_loads() const {
+    return boundary_loads_of(boundary_load_sums());
+  }
+  /// The exact sums behind boundary_loads(): kBoundaryLoadValues per boundary, the force of the
+  /// boundary on the particles and its moment (empty before the first evaluation).
+  std::vector<ExactSum> boundary_load_sums() const;
+  /// Kinetic energy of translation [J].
+  double kinetic_energy() const { return kinetic_energy_sum().value(); }
+  /// Kinetic energy of rotation [J].
+  double rotational_energy() const { return rotational_energy_sum().value(); }
+  /// The exact sum behind kinetic_energy().
+  ExactSum kinetic_energy_sum() const;
+  /// The exact sum behind rotational_energy().
+  ExactSum rotational_energy_sum() const;
+
+  /// Count only the share of the particles of @p owned_ids (sorted) from now on: the pairs whose
+  /// first particle (the smaller id) is one of them in contacts() and the bonds formed and broken,
+  /// their boundary contacts in contacts() and boundary_loads(), their energies. A decomposed
+  /// run's ranks thus count disjoint shares that add up to the whole run's figures; the largest
+  /// overlaps still take every pair (a maximum over the ranks is the whole run's).
+  void count_only(std::vector<std::int64_t> owned_ids);
+  /// Per particle, 1 where it counts (count_only()); empty: every particle counts.
+  const std::vector<std::uint8_t>& counted() const { return counted_; }
   /// Bonds formed so far (a pair joining the adhesive branch of eq. 25).
   std::int64_t bonds_formed() const { return bonds_formed_; }
   /// Bonds lost so far (overlap back at delta_crit, the pair apart, or the criterion failing).
@@ -206,6 +227,8 @@ class Stepper {
   /// Rebuild the list (reordering the particles every reorder_interval builds), carrying the
   /// per-pair state over by ids; first remove the particles outside the domain when it says so.
   void rebuild_list();
+  /// counted_ from counted_ids_ for the particles' current order.
+  void mark_counted();
   /// Drop the particles outside the domain (Domain::remove_outside), counting them in removed_.
   void remove_outside();
   /// The list's reach beyond touching: the skin plus the range of contacts that outlive it.
@@ -237,9 +260,11 @@ class Stepper {
   LaserScratch laser_scratch_;
   double laser_power_ = 0.0;  ///< absorbed in the last evaluation [W]
   double laser_missed_power_ = 0.0;
-  std::vector<ParticleTally> streams_;  ///< per scene stream
-  std::int64_t next_id_ = 0;            ///< id of the next inserted particle
-  ParticleTally removed_;               ///< particles removed outside the domain so far
+  std::vector<std::int64_t> counted_ids_;  ///< count_only()'s ids, sorted; empty: all count
+  std::vector<std::uint8_t> counted_;      ///< per particle, from counted_ids_ at every build
+  std::vector<ParticleTally> streams_;     ///< per scene stream
+  std::int64_t next_id_ = 0;               ///< id of the next inserted particle
+  ParticleTally removed_;                  ///< particles removed outside the domain so far
 };
 
 template <class Visit>

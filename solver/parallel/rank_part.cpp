@@ -32,6 +32,7 @@ RankPart make_rank_part(const Case& c, const Decomposition& decomposition, int r
   }
   std::sort(part.owned_ids.begin(), part.owned_ids.end());
   part.stepper = std::make_unique<Stepper>(*part.scene, std::move(restored));
+  part.stepper->count_only(part.owned_ids);
   return part;
 }
 

@@ -36,7 +36,8 @@ struct RankPart {
 
 /// Rank @p rank's part of @p all under @p decomposition: the scene of case @p c with the owned
 /// particles and those within @p halo, its stepper continuing @p state (whose list build
-/// positions are those of @p all; its pairs' state is taken by the particles' ids).
+/// positions are those of @p all; its pairs' state is taken by the particles' ids), counting
+/// only the owned particles' share (Stepper::count_only).
 RankPart make_rank_part(const Case& c, const Decomposition& decomposition, int rank, double halo,
                         const Particles& all, const StepperState& state);
 

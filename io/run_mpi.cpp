@@ -1,0 +1,604 @@
+#include "io/run_mpi.hpp"
+
+#include <mpi.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <ostream>
+#include <sstream>
+#include <utility>
+#include <variant>
+#include <vector>
+
+#include "io/case_file.hpp"
+#include "io/checkpoint.hpp"
+#include "io/run_observers.hpp"
+#include "io/run_plan.hpp"
+#include "solver/driver/history.hpp"
+#include "solver/driver/progress.hpp"
+#include "solver/driver/run_analysis.hpp"
+#include "solver/driver/simulation.hpp"
+#include "solver/engine/exact_sum.hpp"
+#include "solver/engine/scene.hpp"
+#include "solver/engine/stepper.hpp"
+#include "solver/parallel/decomposition.hpp"
+#include "solver/parallel/particle_transfer.hpp"
+#include "solver/parallel/rank_part.hpp"
+
+namespace bondem {
+
+std::string distributed_run_limits(const Case& description) {
+  const std::string prefix = description.source + ": ";
+  const std::string later = " is not supported under mpirun yet (issue 18): run without mpirun";
+  if (!description.streams.empty()) return prefix + "'streams' (insertion during the run)" + later;
+  if (description.domain && description.domain->remove_outside) {
+    return prefix + "'domain.remove_outside'" + later;
+  }
+  if (description.laser) return prefix + "'laser'" + later;
+  if (description.vtk_interval > 0.0) return prefix + "'output.vtk_interval' (VTK frames)" + later;
+  if (description.state_interval > 0.0) return prefix + "'output.state_interval'" + later;
+  if (description.layers) return prefix + "'analysis.layers'" + later;
+  for (const Boundary& wall : description.boundaries) {
+    if (std::holds_alternative<MeshShape>(wall.shape)) {
+      return prefix + "'walls': mesh wall '" + wall.name + "'" + later;
+    }
+  }
+  return "";
+}
+
+namespace {
+
+int world_rank() {
+  int rank = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  return rank;
+}
+
+int world_size() {
+  int size = 1;
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  return size;
+}
+
+/// The kinds of error that every process rethrows when one throws it.
+enum class ErrorKind : int { kNone, kCase, kBlowUp, kInterrupted, kInvalidArgument, kOther };
+
+/// Runs @p action on every process. When it throws on some, every process throws the error of
+/// the lowest rank that failed: all leave the run together, with the same message and exit
+/// status, and none waits forever for a partner that has left.
+template <class Action>
+void together(Action&& action) {
+  ErrorKind kind = ErrorKind::kNone;
+  int cause = 0;
+  std::string message;
+  try {
+    action();
+  } catch (const CaseError& e) {
+    kind = ErrorKind::kCase;
+    message = e.what();
+  } catch (const BlowUpError& e) {
+    kind = ErrorKind::kBlowUp;
+    cause = static_cast<int>(e.cause());
+    message = e.what();
+  } catch (const RunInterrupted& e) {
+    kind = ErrorKind::kInterrupted;
+    message = e.what();
+  } catch (const std::invalid_argument& e) {
+    kind = ErrorKind::kInvalidArgument;
+    message = e.what();
+  } catch (const std::exception& e) {
+    kind = ErrorKind::kOther;
+    message = e.what();
+  }
+  const int size = world_size();
+  const int mine = kind == ErrorKind::kNone ? size : world_rank();
+  int first = size;
+  MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+  if (first == size) return;
+  int header[3] = {static_cast<int>(kind), cause, static_cast<int>(message.size())};
+  MPI_Bcast(header, 3, MPI_INT, first, MPI_COMM_WORLD);
+  message.resize(static_cast<std::size_t>(header[2]));
+  MPI_Bcast(message.data(), header[2], MPI_CHAR, first, MPI_COMM_WORLD);
+  switch (static_cast<ErrorKind>(header[0])) {
+    case ErrorKind::kCase:
+      throw CaseError(message);
+    case ErrorKind::kBlowUp:
+      throw BlowUpError(message, static_cast<BlowUpCause>(header[1]));
+    case ErrorKind::kInterrupted:
+      throw RunInterrupted(message);
+    case ErrorKind::kInvalidArgument:
+      throw std::invalid_argument(message);
+    default:
+      throw std::runtime_error(message);
+  }
+}
+
+/// Every process's @p mine, concatenated in rank order, on every process (@p at_root_only: on
+/// rank 0 only; the others get nothing).
+std::vector<char> gathered(const std::vector<char>& mine, bool at_root_only = false) {
+  const int size = world_size();
+  const int bytes = static_cast<int>(mine.size());
+  std::vector<int> counts(static_cast<std::size_t>(size)), offsets(static_cast<std::size_t>(size));
+  MPI_Allgather(&bytes, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
+  int total = 0;
+  for (int r = 0; r < size; ++r) {
+    offsets[static_cast<std::size_t>(r)] = total;
+    total += counts[static_cast<std::size_t>(r)];
+  }
+  std::vector<char> all;
+  if (at_root_only) {
+    if (world_rank() == 0) all.resize(static_cast<std::size_t>(total));
+    MPI_Gatherv(mine.data(), bytes, MPI_BYTE, all.data(), counts.data(), offsets.data(), MPI_BYTE,
+                0, MPI_COMM_WORLD);
+  } else {
+    all.resize(static_cast<std::size_t>(total));
+    MPI_Allgatherv(mine.data(), bytes, MPI_BYTE, all.data(), counts.data(), offsets.data(),
+                   MPI_BYTE, MPI_COMM_WORLD);
+  }
+  return all;
+}
+
+/// The bytes of @p values.
+template <class T>
+std::vector<char> bytes_of(const std::vector<T>& values) {
+  std::vector<char> bytes(values.size() * sizeof(T));
+  if (!bytes.empty()) std::memcpy(bytes.data(), values.data(), bytes.size());
+  return bytes;
+}
+
+/// The values whose bytes are @p bytes.
+template <class T>
+std::vector<T> values_of(const std::vector<char>& bytes) {
+  std::vector<T> values(bytes.size() / sizeof(T));
+  if (!values.empty()) std::memcpy(values.data(), bytes.data(), values.size() * sizeof(T));
+  return values;
+}
+
+/// The exact sums @p mine of every process added up, on every process: their digits are added
+/// as integers, so the result is the bytes a single process summing every term gets.
+std::vector<ExactSum> summed(const std::vector<ExactSum>& mine) {
+  constexpr std::size_t kDigits = std::tuple_size_v<ExactSum::Digits>;
+  std::vector<std::int64_t> digits(mine.size() * kDigits);
+  std::vector<double> specials(mine.size());
+  for (std::size_t k = 0; k < mine.size(); ++k) {
+    const ExactSum::Digits d = mine[k].digits();
+    std::copy(d.begin(), d.end(), digits.begin() + static_cast<std::ptrdiff_t>(k * kDigits));
+    specials[k] = mine[k].special();
+  }
+  MPI_Allreduce(MPI_IN_PLACE, digits.data(), static_cast<int>(digits.size()), MPI_INT64_T, MPI_SUM,
+                MPI_COMM_WORLD);
+  MPI_Allreduce(MPI_IN_PLACE, specials.data(), static_cast<int>(specials.size()), MPI_DOUBLE,
+                MPI_SUM, MPI_COMM_WORLD);
+  std::vector<ExactSum> sums(mine.size());
+  for (std::size_t k = 0; k < mine.size(); ++k) {
+    ExactSum::Digits d;
+    std::copy_n(digits.begin() + static_cast<std::ptrdiff_t>(k * kDigits), kDigits, d.begin());
+    sums[k] = ExactSum::from_digits(d, specials[k]);
+  }
+  return sums;
+}
+
+/// The processes' shares of a force evaluation's summary put together: counts added, maxima
+/// taken (each pair is counted by one process; a maximum over every process's pairs is exact).
+ContactSummary summed(const ContactSummary& mine) {
+  std::uint64_t counts[5] = {mine.contacts, mine.bonds, mine.wall_contacts, mine.bonds_formed,
+                             mine.bonds_broken};
+  double maxima[3] = {mine.max_overlap, mine.max_overlap_fraction, mine.thermal_step_ratio};
+  MPI_Allreduce(MPI_IN_PLACE, counts, 5, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+  MPI_Allreduce(MPI_IN_PLACE, maxima, 3, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+  ContactSummary total;
+  total.contacts = counts[0];
+  total.bonds = counts[1];
+  total.wall_contacts = counts[2];
+  total.bonds_formed = counts[3];
+  total.bonds_broken = counts[4];
+  total.max_overlap = maxima[0];
+  total.max_overlap_fraction = maxima[1];
+  total.thermal_step_ratio = maxima[2];
+  return total;
+}
+
+/// A scene and a stepper holding the whole run's state: what rank 0 assembles from every
+/// process's particles to write a checkpoint and the end-of-run files with the observers of the
+/// run in one process.
+struct WholeRun {
+  std::unique_ptr<Scene> scene;
+  std::unique_ptr<Stepper> stepper;
+};
+
+/// This process's part of a distributed run: its RankPart, the ghost exchange with the other
+/// processes, and the run's totals, which every process holds.
+class DistributedRun {
+ public:
+  /// Distribute @p all (the whole run's particles, with @p state) over the processes.
+  DistributedRun(const Case& description, const Particles& all, const StepperState& state,
+                 const ContactSummary& contacts)
+      : case_(description),
+        contacts_(contacts),
+        bonds_formed_(state.bonds_formed),
+        bonds_broken_(state.bonds_broken) {
+    distribute(all, state);
+  }
+
+  /// One step: opening kicks and drift, the rebuild every process takes when one needs it, the
+  /// forces and closing kicks, the totals, then the ghosts' refresh or a redistribution. Returns
+  /// whether some process was asked to stop (@p stop_here: this one was).
+  bool step(bool stop_here) {
+    double local[2] = {part_.stepper->move(), stop_here ? 1.0 : 0.0};
+    MPI_Allreduce(MPI_IN_PLACE, local, 2, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+    const double half_skin = 0.5 * part_.scene->skin;
+    const bool rebuild = local[0] > half_skin * half_skin;
+    together([&] { part_.stepper->complete_step(rebuild); });
+    contacts_ = summed(part_.stepper->contacts());
+    bonds_formed_ += static_cast<std::int64_t>(contacts_.bonds_formed);
+    bonds_broken_ += static_cast<std::int64_t>(contacts_.bonds_broken);
+    // Sums that a redistributed stepper has not evaluated yet, before it replaces this one.
+    load_sums_ = summed(part_.stepper->boundary_load_sums());
+    if (rebuild) {
+      redistribute();
+    } else {
+      refresh_ghosts();
+    }
+    return local[1] != 0.0;
+  }
+
+  /// The whole run's totals at this step (a history row), on every process.
+  RunTotals totals() const {
+    const Stepper& stepper = *part_.stepper;
+    const Particles& p = part_.scene->particles;
+    RunTotals t;
+    t.time = stepper.time();
+    const std::vector<ExactSum> energies = summed(
+        std::vector<ExactSum>{stepper.kinetic_energy_sum(), stepper.rotational_energy_sum()});
+    t.kinetic_energy = energies[0].value();
+    t.rotational_energy = energies[1].value();
+    t.contacts = contacts_;
+    t.bonds_formed = bonds_formed_;
+    t.bonds_broken = bonds_broken_;
+    std::uint64_t owned = part_.owned_ids.size();
+    MPI_Allreduce(MPI_IN_PLACE, &owned, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+    t.particles = owned;
+    if (p.thermal()) {
+      ExactSum sum;
+      double hottest = -std::numeric_limits<double>::infinity();
+      for (std::size_t i = 0; i < p.size(); ++i) {
+        if (!part_.owns(p.id[i])) continue;
+        sum.add(p.temperature[i]);
+        hottest = std::max(hottest, p.temperature[i]);
+      }
+      MPI_Allreduce(MPI_IN_PLACE, &hottest, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+      const double ambient = part_.scene->ambient_temperature;
+      t.max_temperature = owned > 0 ? hottest : ambient;
+      t.mean_temperature =
+          owned > 0 ? summed(std::vector<ExactSum>{sum})[0].value() / static_cast<double>(owned)
+                    : ambient;
+      t.laser_energy = stepper.laser_energy();
+    }
+    t.loads = boundary_loads_of(load_sums_);
+    return t;
+  }
+
+  /// On rank 0, the whole run's state assembled from every process's owned particles and pairs
+  /// (each pair sent by the owner of its smaller id); elsewhere, nothing. Every process calls it.
+  WholeRun assemble() const {
+    const Particles& p = part_.scene->particles;
+    const StepperState state = part_.stepper->save_state();
+    std::vector<char> records;
+    std::vector<double> build_positions;  // x0, y0, z0 of each owned particle
+    for (std::size_t k = 0; k < p.size(); ++k) {
+      if (!part_.owns(p.id[k])) continue;
+      pack_particle(p, k, records);
+      build_positions.insert(build_positions.end(),
+                             {state.list.x0[k], state.list.y0[k], state.list.z0[k]});
+    }
+    std::vector<SlipRecord> slips;
+    for (const SlipRecord& s : state.slips) {
+      if (part_.owns(s.first_id)) slips.push_back(s);
+    }
+    const std::vector<char> all_records = gathered(records, true);
+    const std::vector<double> all_positions =
+        values_of<double>(gathered(bytes_of(build_positions), true));
+    std::vector<SlipRecord> all_slips = values_of<SlipRecord>(gathered(bytes_of(slips), true));
+    if (world_rank() != 0) return {};
+
+    Particles all = particles_from(all_records);
+    const std::vector<std::uint32_t> by_id = all.order_by_id();
+    all.permute(by_id);
+    StepperState whole = state;
+    whole.contacts = contacts_;
+    whole.bonds_formed = bonds_formed_;
+    whole.bonds_broken = bonds_broken_;
+    for (int axis = 0; axis < 3; ++axis) {
+      StaggeredVector<double> positions(by_id.size());
+      for (std::size_t k = 0; k < by_id.size(); ++k) {
+        positions[k] = all_positions[3 * by_id[k] + static_cast<std::size_t>(axis)];
+      }
+      (axis == 0 ? whole.list.x0 : axis == 1 ? whole.list.y0 : whole.list.z0).swap(positions);
+    }
+    std::sort(all_slips.begin(), all_slips.end(), [](const SlipRecord& a, const SlipRecord& b) {
+      return std::pair(a.first_id, a.second_id) < std::pair(b.first_id, b.second_id);
+    });
+    whole.slips = std::move(all_slips);
+    WholeRun run;
+    run.scene = std::make_unique<Scene>(build_scene(case_));
+    run.scene->particles = std::move(all);
+    run.stepper = std::make_unique<Stepper>(*run.scene, std::move(whole));
+    return run;
+  }
+
+  const RankPart& part() const { return part_; }
+  /// Redistributions so far (one per list rebuild).
+  std::int64_t redistributions() const { return redistributions_; }
+
+ private:
+  /// @p records (packed particles of this run) as particles, in their order.
+  Particles particles_from(const std::vector<char>& records) const {
+    const std::size_t n = record_bytes_ == 0 ? 0 : records.size() / record_bytes_;
+    Particles all = one_particle_;
+    all.permute(std::vector<std::uint32_t>(n, 0));
+    for (std::size_t k = 0; k < n; ++k) unpack_particle(records.data() + k * record_bytes_, all, k);
+    return all;
+  }
+
+  /// Bisect @p all over the processes and take this process's part, continuing @p state; then
+  /// list what to send to each process after every step and where its particles go.
+  void distribute(const Particles& all, const StepperState& state) {
+    const int size = world_size();
+    const int rank = world_rank();
+    if (all.size() > 0 && one_particle_.size() == 0) {
+      one_particle_ = all;
+      one_particle_.permute({0});
+      std::vector<char> one;
+      pack_particle(all, 0, one);
+      record_bytes_ = one.size();
+    }
+    const Scene probe = build_scene(case_);
+    const double halo = decomposition_halo(all, probe.skin);
+    const std::vector<double> cost(all.size(), 1.0);
+    const Decomposition d = bisect(all.x, all.y, all.z, cost, all.id,
+                                   Box{probe.domain.min, probe.domain.max}, size, halo);
+    part_.stepper.reset();  // before the scene it steps
+    part_ = make_rank_part(case_, d, rank, halo, all, state);
+
+    // Where each particle of the part sits, by id.
+    const Particles& p = part_.scene->particles;
+    std::vector<std::pair<std::int64_t, std::uint32_t>> index_of(p.size());
+    for (std::size_t k = 0; k < p.size(); ++k)
+      index_of[k] = {p.id[k], static_cast<std::uint32_t>(k)};
+    std::sort(index_of.begin(), index_of.end());
+    const auto local_index = [&](std::int64_t id) {
+      return std::lower_bound(index_of.begin(), index_of.end(), std::pair(id, std::uint32_t{0}))
+          ->second;
+    };
+    // Each process sends the owned particles in another's halo, by id; the other receives them
+    // into its ghosts of the same ids, in the same order.
+    std::vector<int> owner(all.size());
+    for (std::size_t i = 0; i < all.size(); ++i) owner[i] = d.owner(all.x[i], all.y[i], all.z[i]);
+    sends_.assign(static_cast<std::size_t>(size), {});
+    receives_.assign(static_cast<std::size_t>(size), {});
+    const std::vector<std::uint32_t> mine =
+        subdomain_members(d, rank, probe.domain, halo, all.x, all.y, all.z);
+    for (int r = 0; r < size; ++r) {
+      if (r == rank) continue;
+      std::vector<std::pair<std::int64_t, std::uint32_t>> sent;
+      for (const std::uint32_t i :
+           subdomain_members(d, r, probe.domain, halo, all.x, all.y, all.z)) {
+        if (owner[i] == rank) sent.emplace_back(all.id[i], local_index(all.id[i]));
+      }
+      std::sort(sent.begin(), sent.end());
+      for (const auto& [id, k] : sent) sends_[static_cast<std::size_t>(r)].push_back(k);
+      std::vector<std::pair<std::int64_t, std::uint32_t>> received;
+      for (const std::uint32_t i : mine) {
+        if (owner[i] == r) received.emplace_back(all.id[i], local_index(all.id[i]));
+      }
+      std::sort(received.begin(), received.end());
+      for (const auto& [id, k] : received) receives_[static_cast<std::size_t>(r)].push_back(k);
+    }
+  }
+
+  /// Every ghost takes its owner's state: each process sends the others the owned particles in
+  /// their halos (neighbour-only: no other particle travels).
+  void refresh_ghosts() {
+    const int size = world_size();
+    Particles& p = part_.scene->particles;
+    std::vector<int> send_counts(static_cast<std::size_t>(size)), send_offsets(send_counts.size());
+    std::vector<int> receive_counts(send_counts.size()), receive_offsets(send_counts.size());
+    send_buffer_.clear();
+    int sent = 0, received = 0;
+    for (int r = 0; r < size; ++r) {
+      const auto ur = static_cast<std::size_t>(r);
+      for (const std::uint32_t k : sends_[ur]) pack_particle(p, k, send_buffer_);
+      send_offsets[ur] = sent;
+      send_counts[ur] = static_cast<int>(send_buffer_.size()) - sent;
+      sent = static_cast<int>(send_buffer_.size());
+      receive_offsets[ur] = received;
+      receive_counts[ur] = static_cast<int>(receives_[ur].size() * record_bytes_);
+      received += receive_counts[ur];
+    }
+    receive_buffer_.resize(static_cast<std::size_t>(received));
+    MPI_Alltoallv(send_buffer_.data(), send_counts.data(), send_offsets.data(), MPI_BYTE,
+                  receive_buffer_.data(), receive_counts.data(), receive_offsets.data(), MPI_BYTE,
+                  MPI_COMM_WORLD);
+    const char* at = receive_buffer_.data();
+    for (const std::vector<std::uint32_t>& ghosts : receives_) {
+      for (const std::uint32_t k : ghosts) at += unpack_particle(at, p, k);
+    }
+  }
+
+  /// After a rebuild: every process's owned particles and pairs' state, distributed anew over
+  /// cuts of the particles' new positions.
+  void redistribute() {
+    ++redistributions_;
+    const Particles& p = part_.scene->particles;
+    std::vector<char> records;
+    for (std::size_t k = 0; k < p.size(); ++k) {
+      if (part_.owns(p.id[k])) pack_particle(p, k, records);
+    }
+    const StepperState mine = part_.stepper->save_state();
+    std::vector<SlipRecord> slips;
+    for (const SlipRecord& s : mine.slips) {
+      if (part_.owns(s.first_id)) slips.push_back(s);
+    }
+    const Particles all = particles_from(gathered(records));
+    distribute(all,
+               redistribution_state(mine, all, values_of<SlipRecord>(gathered(bytes_of(slips)))));
+  }
+
+  const Case& case_;
+  RankPart part_;
+  Particles one_particle_;  ///< a particle of the run: the fields every record carries
+  std::size_t record_bytes_ = 0;
+  std::vector<std::vector<std::uint32_t>> sends_;     ///< per process, owned particles it needs
+  std::vector<std::vector<std::uint32_t>> receives_;  ///< per process, ghosts it owns
+  std::vector<char> send_buffer_, receive_buffer_;
+  ContactSummary contacts_;  ///< of the last force evaluation, all processes together
+  std::vector<ExactSum> load_sums_;
+  std::int64_t bonds_formed_ = 0, bonds_broken_ = 0;
+  std::int64_t redistributions_ = 0;
+};
+
+}  // namespace
+
+RunResult run_case_distributed(Case description, const RunOptions& options, std::ostream& log) {
+  const bool root = world_rank() == 0;
+  RunPlan plan;
+  std::optional<Scene> scene;
+  StepperState state;
+  RunTotals first_totals;  // of step 0 (a fresh run's first history row)
+  std::string history_text;
+  together([&] {
+    if (const std::string limit = distributed_run_limits(description); !limit.empty()) {
+      throw CaseError(limit);
+    }
+    plan = plan_run(description, options);
+    scene.emplace(build_scene(description));
+    if (plan.restarting) {
+      Checkpoint restored = read_fitting_checkpoint(description, options, plan, *scene);
+      plan.first_step = restored.stepper.step;
+      scene->particles = std::move(restored.particles);
+      history_text = history_without_end_row(restored.history, restored.stepper.step,
+                                             restored.stepper.time, plan.history_every);
+      state = std::move(restored.stepper);
+    } else {
+      // The initial forces of the whole scene, as the run in one process evaluates them.
+      Stepper whole(*scene);
+      state = whole.save_state();
+      first_totals = run_totals(*scene, whole);
+    }
+    check_output_fields(description, *scene, history_text);
+  });
+  together([&] {
+    if (root) prepare_output_directory(description, options, plan);
+  });
+
+  DistributedRun run(description, scene->particles, state, state.contacts);
+  scene.reset();  // each process now holds its part only
+  state = StepperState{};
+
+  // Rank 0 writes the history, the checkpoints and the end-of-run files.
+  std::optional<HistoryFile> history_file;
+  if (root) history_file.emplace((plan.directory / "history.csv").string());
+  History history(
+      *run.part().scene, plan.history_every,
+      [&](const std::string& text) {
+        if (history_file) history_file->append(text);
+      },
+      description.history_fields);
+  if (plan.restarting) history.continue_from(std::move(history_text));
+  CheckpointFile checkpoint(plan.checkpoint_path, plan.fingerprint, plan.checkpoint_every, history);
+  Progress progress(log, options.quiet || !root);
+  together([&] {
+    if (history_file) history_file->append(history.text());  // the header, or a restart's rows
+  });
+  {
+    Simulation rank_view(*run.part().scene, *run.part().stepper, plan.steps);
+    progress.start(rank_view);
+    progress.count_particles(run.totals().particles);
+  }
+  const auto add_row = [&](std::int64_t step, const RunTotals& totals) {
+    together([&] {
+      if (const std::string non_finite = history.add_row(step, totals); !non_finite.empty()) {
+        std::ostringstream message;
+        message << "step " << step << " (t = " << totals.time << " s): history value "
+                << non_finite;
+        throw BlowUpError(message.str(), BlowUpCause::kHistory);
+      }
+    });
+  };
+  const auto at_whole_run = [&](auto&& use) {
+    WholeRun whole = run.assemble();
+    together([&] {
+      if (!root) return;
+      Simulation simulation(*whole.scene, *whole.stepper, plan.steps);
+      use(simulation);
+    });
+  };
+
+  const auto started = std::chrono::steady_clock::now();
+  try {
+    if (!plan.restarting) add_row(0, first_totals);
+    for (std::int64_t step = plan.first_step; step < plan.steps;) {
+      const bool stop_here = options.stop_requested != nullptr && *options.stop_requested != 0;
+      const bool stop = run.step(stop_here);
+      ++step;
+      const bool at_end = step == plan.steps;
+      if (step % plan.history_every == 0 || at_end) add_row(step, run.totals());
+      if (step % plan.checkpoint_every == 0 && !at_end) {
+        at_whole_run([&](const Simulation& s) { checkpoint.after_step(s); });
+      }
+      if (root) {
+        Simulation rank_view(*run.part().scene, *run.part().stepper, plan.steps);
+        progress.after_step(rank_view);
+      }
+      if (stop && !at_end) {
+        at_whole_run([&](const Simulation& s) {
+          const Interruption why{StopReason::kStopRequested, nullptr};
+          checkpoint.interrupted(s, why);
+          RunAnalysis unused(description);
+          EndOfRunFiles(plan.directory, unused).interrupted(s, why);
+          progress.interrupted(s, why);
+        });
+        std::ostringstream message;
+        message << "interrupted at step " << step << " (t = " << run.part().stepper->time()
+                << " s); checkpoint written. Resume with: "
+                << resume_command(options, description, plan.directory, plan.checkpoint_path);
+        throw RunInterrupted(message.str());
+      }
+    }
+  } catch (const BlowUpError& e) {
+    // The run in one process keeps the state of the last history row; this one does not yet.
+    std::string message = blow_up_message(e, description, plan);
+    message.erase(message.rfind(". Last good state: "));
+    throw BlowUpError(message + " (a distributed run keeps no last good state yet)", e.cause());
+  }
+  const double loop_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+
+  RunResult result;
+  at_whole_run([&](const Simulation& s) {
+    progress.finish(s);
+    checkpoint.finish(s);
+    RunAnalysis analysis(description);
+    analysis.finish(s);
+    EndOfRunFiles(plan.directory, analysis).finish(s);
+    RunEnd end;
+    end.finished = true;
+    end.first_step = plan.first_step;
+    end.step = plan.steps;
+    end.loop_seconds = loop_seconds;
+    result = collect_result(end, s, *analysis.figures());
+  });
+  if (!root) {
+    result.steps = plan.steps - plan.first_step;
+    result.particles = run.part().owned_ids.size();
+    result.wall_seconds = loop_seconds;
+  }
+  return result;
+}
+
+}  // namespace bondem

@@ -1,0 +1,91 @@
+# `mpirun -np PROCESSES bondem run` against the run in one process: the same bytes.
+# With PROCESSES 0 it writes the references (the run in one process, the fixture of the others).
+# Each case is run into WORK/<case>_<processes>; every output is compared with the reference's:
+#   pour       tests/cases/storage_order.yaml: 1 100 frictional spheres thrown at a floor across
+#              periodic x and y, pushed by a moving blade, every contact bonding; a checkpoint
+#              midway. Then the same run stopped midway on PROCESSES processes and continued
+#              from its checkpoint on another number of processes.
+#   spreading  cases/powder_spreading_ci.yaml without its VTK frames, shortened to 3 ms with the
+#              blade moving from 0.5 ms at 0.4 m/s, through the falling heap (layer.csv included).
+#   thermal    tests/cases/thermal_bonding.yaml: heat flow, temperature-criterion bonds, the
+#              substrate's load.
+#   migration  tests/cases/migration_stress.yaml: crossing streams in a box periodic along x, y
+#              and z; every sphere crosses the cuts and the periodic faces.
+include(${CMAKE_CURRENT_LIST_DIR}/cli_common.cmake)
+
+file(MAKE_DIRECTORY ${WORK})
+file(READ ${CASES}/powder_spreading_ci.yaml spreading)
+string(REGEX REPLACE "\n *vtk_interval:[^\n]*" "" spreading "${spreading}")
+file(WRITE ${WORK}/spreading.yaml "${spreading}")
+
+set(pour_case ${TEST_CASES}/storage_order.yaml)
+set(pour_options --set time.end=0.0024 --set output.checkpoint_interval=0.0012
+                 --set output.history_interval=0.0002)
+set(spreading_case ${WORK}/spreading.yaml)
+set(spreading_options --set walls.2.motion.1.time=0.0005 --set walls.2.motion.1.velocity.0=0.4
+                      --set time.end=0.003 --set output.history_interval=0.0002)
+set(thermal_case ${TEST_CASES}/thermal_bonding.yaml)
+set(thermal_options)
+set(migration_case ${TEST_CASES}/migration_stress.yaml)
+set(migration_options)
+set(outputs history.csv final_state.csv checkpoint.bin clusters.csv layer.csv)
+
+# Open MPI refuses root without these (CI runs as root).
+set(ENV{OMPI_ALLOW_RUN_AS_ROOT} 1)
+set(ENV{OMPI_ALLOW_RUN_AS_ROOT_CONFIRM} 1)
+
+# Runs bondem run with ARGN on `processes` processes (0: without mpirun); must exit 0.
+function(run_on processes)
+  if(processes EQUAL 0)
+    set(command ${BONDEM} run ${ARGN} --quiet)
+  else()
+    # --bind-to none: more processes than cores share them (CI has 2) instead of spinning on one.
+    set(command ${MPIRUN} --oversubscribe --bind-to none -np ${processes} ${BONDEM} run ${ARGN}
+                --quiet)
+  endif()
+  execute_process(COMMAND ${command} RESULT_VARIABLE status ERROR_VARIABLE err OUTPUT_VARIABLE out)
+  if(NOT status EQUAL 0)
+    message(FATAL_ERROR "'${command}' exited with ${status}: ${err}")
+  endif()
+endfunction()
+
+# Every output of the reference run of `name` must be in `directory` with the same bytes.
+function(expect_reference_bytes name directory what)
+  foreach(output ${outputs})
+    set(reference ${WORK}/../cli_mpi_run_0_work/${name}_0/${output})
+    if(NOT EXISTS ${reference})
+      continue()
+    endif()
+    execute_process(COMMAND ${CMAKE_COMMAND} -E compare_files ${reference} ${directory}/${output}
+                    RESULT_VARIABLE differ)
+    if(differ)
+      message(FATAL_ERROR "${what}: ${output} differs from the run in one process")
+    endif()
+  endforeach()
+endfunction()
+
+foreach(name pour spreading thermal migration)
+  set(directory ${WORK}/${name}_${PROCESSES})
+  file(REMOVE_RECURSE ${directory})
+  run_on(${PROCESSES} ${${name}_case} ${${name}_options} --output ${directory})
+  if(PROCESSES EQUAL 0)
+    if(NOT EXISTS ${directory}/checkpoint.bin)
+      message(FATAL_ERROR "${name}: the reference run wrote no checkpoint")
+    endif()
+  else()
+    expect_reference_bytes(${name} ${directory} "${name} on ${PROCESSES} processes")
+  endif()
+endforeach()
+
+if(NOT PROCESSES EQUAL 0)
+  # Stopped midway on PROCESSES processes, continued from the checkpoint on another number.
+  math(EXPR next "${PROCESSES} % 4 + 1")
+  set(directory ${WORK}/pour_restarted)
+  file(REMOVE_RECURSE ${directory})
+  set(halfway --set output.checkpoint_interval=0.0012 --set output.history_interval=0.0002)
+  run_on(${PROCESSES} ${pour_case} ${halfway} --set time.end=0.0012 --output ${directory})
+  run_on(${next} ${pour_case} ${pour_options} --output ${directory}
+         --restart ${directory}/checkpoint.bin)
+  expect_reference_bytes(pour ${directory}
+                         "pour on ${PROCESSES} processes continued on ${next}")
+endif()
