@@ -504,7 +504,15 @@ int run_run(const RunCommand& o) {
     if (!c.streams.empty()) {
       std::cerr << " and " << c.streams.size() << (c.streams.size() == 1 ? " stream" : " streams");
     }
-    std::cerr << ", " << threads << (threads == 1 ? " thread" : " threads");
+#if defined(BONDEM_WITH_MPI)
+    if (g_distributed) {
+      int processes = 1;
+      MPI_Comm_size(MPI_COMM_WORLD, &processes);
+      std::cerr << ", " << processes << (processes == 1 ? " MPI process" : " MPI processes");
+    }
+#endif
+    std::cerr << ", " << threads << (threads == 1 ? " thread" : " threads")
+              << (g_distributed ? " each" : "");
     if (threads < omp_get_max_threads()) {
       std::cerr << " (below " << bondem::kMinParallelParticles
                 << " particles the loops run serially; " << omp_get_max_threads() << " available"

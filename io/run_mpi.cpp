@@ -225,12 +225,14 @@ class DistributedRun {
     distribute(all, state);
   }
 
-  /// One step: opening kicks and drift, the rebuild every process takes when one needs it, the
-  /// forces and closing kicks, the totals, then the ghosts' refresh or a redistribution. Returns
-  /// whether some process was asked to stop (@p stop_here: this one was).
+  /// One step: the opening kicks and the drift, the ghosts' motion from their owners, the
+  /// rebuild every process takes when one needs it, the forces and closing kicks, the totals, and
+  /// after a rebuild a redistribution. Returns whether some process was asked to stop
+  /// (@p stop_here: this one was).
   bool step(bool stop_here) {
     double local[2] = {part_.stepper->move(), stop_here ? 1.0 : 0.0};
     MPI_Allreduce(MPI_IN_PLACE, local, 2, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+    refresh_ghosts();
     const double half_skin = 0.5 * part_.scene->skin;
     const bool rebuild = local[0] > half_skin * half_skin;
     together([&] { part_.stepper->complete_step(rebuild); });
@@ -239,11 +241,7 @@ class DistributedRun {
     bonds_broken_ += static_cast<std::int64_t>(contacts_.bonds_broken);
     // Sums that a redistributed stepper has not evaluated yet, before it replaces this one.
     load_sums_ = summed(part_.stepper->boundary_load_sums());
-    if (rebuild) {
-      redistribute();
-    } else {
-      refresh_ghosts();
-    }
+    if (rebuild) redistribute();
     return local[1] != 0.0;
   }
 
@@ -401,32 +399,41 @@ class DistributedRun {
     }
   }
 
-  /// Every ghost takes its owner's state: each process sends the others the owned particles in
-  /// their halos (neighbour-only: no other particle travels).
+  /// Every ghost takes its owner's motion after the drift: position, velocity, spin and, in a
+  /// thermal run, temperature, the state of a particle that pair forces read besides what a
+  /// step does not change (radius, mass, material, id). Each process sends the others only the
+  /// owned particles in their halos. The ghosts' other fields (forces, wall contacts) are this
+  /// process's own evaluation, which nothing of an owned particle reads.
   void refresh_ghosts() {
     const int size = world_size();
     Particles& p = part_.scene->particles;
+    std::vector<StaggeredVector<double>*> fields{&p.x,  &p.y,  &p.z,  &p.vx, &p.vy,
+                                                 &p.vz, &p.wx, &p.wy, &p.wz};
+    if (p.thermal()) fields.push_back(&p.temperature);
+    const std::size_t width = fields.size();
     std::vector<int> send_counts(static_cast<std::size_t>(size)), send_offsets(send_counts.size());
     std::vector<int> receive_counts(send_counts.size()), receive_offsets(send_counts.size());
-    send_buffer_.clear();
-    int sent = 0, received = 0;
+    send_values_.clear();
+    receive_values_.clear();
     for (int r = 0; r < size; ++r) {
       const auto ur = static_cast<std::size_t>(r);
-      for (const std::uint32_t k : sends_[ur]) pack_particle(p, k, send_buffer_);
-      send_offsets[ur] = sent;
-      send_counts[ur] = static_cast<int>(send_buffer_.size()) - sent;
-      sent = static_cast<int>(send_buffer_.size());
-      receive_offsets[ur] = received;
-      receive_counts[ur] = static_cast<int>(receives_[ur].size() * record_bytes_);
-      received += receive_counts[ur];
+      send_offsets[ur] = static_cast<int>(send_values_.size());
+      for (const std::uint32_t k : sends_[ur]) {
+        for (const StaggeredVector<double>* field : fields) send_values_.push_back((*field)[k]);
+      }
+      send_counts[ur] = static_cast<int>(send_values_.size()) - send_offsets[ur];
+      receive_offsets[ur] = static_cast<int>(receive_values_.size());
+      receive_counts[ur] = static_cast<int>(receives_[ur].size() * width);
+      receive_values_.resize(receive_values_.size() + receives_[ur].size() * width);
     }
-    receive_buffer_.resize(static_cast<std::size_t>(received));
-    MPI_Alltoallv(send_buffer_.data(), send_counts.data(), send_offsets.data(), MPI_BYTE,
-                  receive_buffer_.data(), receive_counts.data(), receive_offsets.data(), MPI_BYTE,
+    MPI_Alltoallv(send_values_.data(), send_counts.data(), send_offsets.data(), MPI_DOUBLE,
+                  receive_values_.data(), receive_counts.data(), receive_offsets.data(), MPI_DOUBLE,
                   MPI_COMM_WORLD);
-    const char* at = receive_buffer_.data();
+    const double* at = receive_values_.data();
     for (const std::vector<std::uint32_t>& ghosts : receives_) {
-      for (const std::uint32_t k : ghosts) at += unpack_particle(at, p, k);
+      for (const std::uint32_t k : ghosts) {
+        for (StaggeredVector<double>* field : fields) (*field)[k] = *at++;
+      }
     }
   }
 
@@ -455,7 +462,7 @@ class DistributedRun {
   std::size_t record_bytes_ = 0;
   std::vector<std::vector<std::uint32_t>> sends_;     ///< per process, owned particles it needs
   std::vector<std::vector<std::uint32_t>> receives_;  ///< per process, ghosts it owns
-  std::vector<char> send_buffer_, receive_buffer_;
+  std::vector<double> send_values_, receive_values_;
   ContactSummary contacts_;  ///< of the last force evaluation, all processes together
   std::vector<ExactSum> load_sums_;
   std::int64_t bonds_formed_ = 0, bonds_broken_ = 0;

@@ -21,8 +21,8 @@ std::string distributed_run_limits(const Case& description);
 /// MPI_COMM_WORLD (initialized by the caller, which calls this on every process).
 ///
 /// Each process owns the particles in its box of a recursive coordinate bisection and keeps
-/// copies (ghosts) of the others' particles within 2 r_max + 2 skin of it, refreshed from their
-/// owners after every step. All processes rebuild their lists together (when any particle has
+/// copies (ghosts) of the others' particles within 2 r_max + 2 skin of it, whose motion their
+/// owners send after every drift. All processes rebuild their lists together (when any particle has
 /// moved half a skin), and at every rebuild the particles and their pairs' state are redistributed
 /// over new cuts. Each pair is counted by the owner of its smaller id, each boundary contact by
 /// the particle's owner; totals are exact sums whose digits add across processes. history.csv,

@@ -270,6 +270,9 @@ double Stepper::drift(double dt) {
   // One sweep: the opening half-kicks, the drift and the list's displacement check each read and
   // write the same particle arrays, which at 10^6 particles come from memory every time.
   double largest_sq = 0.0;
+  // Only the counted particles' displacements: a decomposed run's ranks then agree on the whole
+  // run's largest, however far their ghosts drift from their owners' positions meanwhile.
+  const std::uint8_t* counted = counted_.empty() ? nullptr : counted_.data();
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) reduction(max \
                                                                                     : largest_sq)
   for (std::size_t i = 0; i < n; ++i) {
@@ -291,7 +294,9 @@ double Stepper::drift(double dt) {
       p.dz[i] += step_z;
     }
     if (spin) kick_spin(p, i, half_dt);
-    largest_sq = std::max(largest_sq, list_.displacement_sq(p, i));
+    if (counted == nullptr || counted[i] != 0) {
+      largest_sq = std::max(largest_sq, list_.displacement_sq(p, i));
+    }
   }
   return largest_sq;
 }

@@ -95,8 +95,8 @@ class Stepper {
   void step();
 
   /// The first half of step(): the opening half-kicks and the drift. Returns the largest squared
-  /// displacement of a particle since the last list build, so that the parts of a decomposed run
-  /// can agree on a rebuild before any of them takes it.
+  /// displacement of a particle (a counted one: count_only()) since the last list build, so that
+  /// the parts of a decomposed run can agree on a rebuild before any of them takes it.
   double move();
   /// The second half of step(): the particles the streams owe, the list rebuilt when @p rebuild
   /// or a particle was inserted, the forces, the closing half-kicks and the checks of step().
