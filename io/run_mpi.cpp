@@ -3,9 +3,12 @@
 #include <mpi.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -203,6 +206,38 @@ ContactSummary summed(const ContactSummary& mine) {
   return total;
 }
 
+/// The phases of a distributed step, timed for BONDEM_MPI_PROFILE.
+enum class Phase { kMove, kAgree, kGhosts, kForces, kWait, kTotals, kRedistribute, kCount };
+
+/// Wall time per phase, from lap to lap.
+class PhaseTimer {
+ public:
+  void start() { last_ = Clock::now(); }
+  /// Adds the time since the last lap (or start()) to @p phase.
+  void lap(Phase phase) {
+    const Clock::time_point now = Clock::now();
+    seconds_[static_cast<std::size_t>(phase)] += std::chrono::duration<double>(now - last_).count();
+    last_ = now;
+  }
+  /// "move 1.2 s, agree 0.1 s, ...".
+  std::string text() const {
+    static constexpr const char* kNames[] = {"move",        "agree on rebuild",     "ghosts",
+                                             "forces",      "wait for the slowest", "totals",
+                                             "redistribute"};
+    std::ostringstream out;
+    out.precision(4);
+    for (std::size_t k = 0; k < seconds_.size(); ++k) {
+      out << (k == 0 ? "" : ", ") << kNames[k] << " " << seconds_[k] << " s";
+    }
+    return out.str();
+  }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  Clock::time_point last_;
+  std::array<double, static_cast<std::size_t>(Phase::kCount)> seconds_{};
+};
+
 /// A scene and a stepper holding the whole run's state: what rank 0 assembles from every
 /// process's particles to write a checkpoint and the end-of-run files with the observers of the
 /// run in one process.
@@ -215,14 +250,15 @@ struct WholeRun {
 /// processes, and the run's totals, which every process holds.
 class DistributedRun {
  public:
-  /// Distribute @p all (the whole run's particles, with @p state) over the processes.
+  /// Distribute @p all (the whole run's particles, with @p state; their bisection weights
+  /// @p costs, stepping_costs()) over the processes.
   DistributedRun(const Case& description, const Particles& all, const StepperState& state,
-                 const ContactSummary& contacts)
+                 const std::vector<double>& costs)
       : case_(description),
-        contacts_(contacts),
+        contacts_(state.contacts),
         bonds_formed_(state.bonds_formed),
         bonds_broken_(state.bonds_broken) {
-    distribute(all, state);
+    distribute(all, state, costs);
   }
 
   /// One step: the opening kicks and the drift, the ghosts' motion from their owners, the
@@ -230,20 +266,41 @@ class DistributedRun {
   /// after a rebuild a redistribution. Returns whether some process was asked to stop
   /// (@p stop_here: this one was).
   bool step(bool stop_here) {
+    timer_.start();
     double local[2] = {part_.stepper->move(), stop_here ? 1.0 : 0.0};
+    timer_.lap(Phase::kMove);
     MPI_Allreduce(MPI_IN_PLACE, local, 2, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+    timer_.lap(Phase::kAgree);
     refresh_ghosts();
+    timer_.lap(Phase::kGhosts);
     const double half_skin = 0.5 * part_.scene->skin;
     const bool rebuild = local[0] > half_skin * half_skin;
-    together([&] { part_.stepper->complete_step(rebuild); });
+    std::exception_ptr failure;  // a blow-up here ends every process's run, below
+    try {
+      part_.stepper->complete_step(rebuild);
+    } catch (...) {
+      failure = std::current_exception();
+    }
+    timer_.lap(Phase::kForces);
+    together([&] {
+      if (failure) std::rethrow_exception(failure);
+    });
+    timer_.lap(Phase::kWait);
     contacts_ = summed(part_.stepper->contacts());
     bonds_formed_ += static_cast<std::int64_t>(contacts_.bonds_formed);
     bonds_broken_ += static_cast<std::int64_t>(contacts_.bonds_broken);
     // Sums that a redistributed stepper has not evaluated yet, before it replaces this one.
     load_sums_ = summed(part_.stepper->boundary_load_sums());
-    if (rebuild) redistribute();
+    timer_.lap(Phase::kTotals);
+    if (rebuild) {
+      redistribute();
+      timer_.lap(Phase::kRedistribute);
+    }
     return local[1] != 0.0;
   }
+
+  /// What this process's steps spent in each phase, in seconds, for BONDEM_MPI_PROFILE.
+  std::string profile() const { return timer_.text(); }
 
   /// The whole run's totals at this step (a history row), on every process.
   RunTotals totals() const {
@@ -345,7 +402,8 @@ class DistributedRun {
 
   /// Bisect @p all over the processes and take this process's part, continuing @p state; then
   /// list what to send to each process after every step and where its particles go.
-  void distribute(const Particles& all, const StepperState& state) {
+  void distribute(const Particles& all, const StepperState& state,
+                  const std::vector<double>& cost) {
     const int size = world_size();
     const int rank = world_rank();
     if (all.size() > 0 && one_particle_.size() == 0) {
@@ -357,7 +415,6 @@ class DistributedRun {
     }
     const Scene probe = build_scene(case_);
     const double halo = decomposition_halo(all, probe.skin);
-    const std::vector<double> cost(all.size(), 1.0);
     const Decomposition d = bisect(all.x, all.y, all.z, cost, all.id,
                                    Box{probe.domain.min, probe.domain.max}, size, halo);
     part_.stepper.reset();  // before the scene it steps
@@ -442,9 +499,13 @@ class DistributedRun {
   void redistribute() {
     ++redistributions_;
     const Particles& p = part_.scene->particles;
+    const std::vector<double> costs = stepping_costs(*part_.stepper);  // of the new list
     std::vector<char> records;
+    std::vector<double> owned_costs;
     for (std::size_t k = 0; k < p.size(); ++k) {
-      if (part_.owns(p.id[k])) pack_particle(p, k, records);
+      if (!part_.owns(p.id[k])) continue;
+      pack_particle(p, k, records);
+      owned_costs.push_back(costs[k]);
     }
     const StepperState mine = part_.stepper->save_state();
     std::vector<SlipRecord> slips;
@@ -453,7 +514,8 @@ class DistributedRun {
     }
     const Particles all = particles_from(gathered(records));
     distribute(all,
-               redistribution_state(mine, all, values_of<SlipRecord>(gathered(bytes_of(slips)))));
+               redistribution_state(mine, all, values_of<SlipRecord>(gathered(bytes_of(slips)))),
+               values_of<double>(gathered(bytes_of(owned_costs))));
   }
 
   const Case& case_;
@@ -467,6 +529,7 @@ class DistributedRun {
   std::vector<ExactSum> load_sums_;
   std::int64_t bonds_formed_ = 0, bonds_broken_ = 0;
   std::int64_t redistributions_ = 0;
+  PhaseTimer timer_;
 };
 
 }  // namespace
@@ -476,7 +539,8 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
   RunPlan plan;
   std::optional<Scene> scene;
   StepperState state;
-  RunTotals first_totals;  // of step 0 (a fresh run's first history row)
+  RunTotals first_totals;     // of step 0 (a fresh run's first history row)
+  std::vector<double> costs;  // bisection weights: a restart has no list yet, and weighs 1 each
   std::string history_text;
   together([&] {
     if (const std::string limit = distributed_run_limits(description); !limit.empty()) {
@@ -491,11 +555,13 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
       history_text = history_without_end_row(restored.history, restored.stepper.step,
                                              restored.stepper.time, plan.history_every);
       state = std::move(restored.stepper);
+      costs.assign(scene->particles.size(), 1.0);
     } else {
       // The initial forces of the whole scene, as the run in one process evaluates them.
       Stepper whole(*scene);
       state = whole.save_state();
       first_totals = run_totals(*scene, whole);
+      costs = stepping_costs(whole);
     }
     check_output_fields(description, *scene, history_text);
   });
@@ -503,7 +569,7 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
     if (root) prepare_output_directory(description, options, plan);
   });
 
-  DistributedRun run(description, scene->particles, state, state.contacts);
+  DistributedRun run(description, scene->particles, state, costs);
   scene.reset();  // each process now holds its part only
   state = StepperState{};
 
@@ -585,6 +651,15 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
   }
   const double loop_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  if (std::getenv("BONDEM_MPI_PROFILE") != nullptr) {
+    // One line a process, in rank order: where its steps went.
+    const std::string line = "bondem: process " + std::to_string(world_rank()) + ": " +
+                             run.profile() + ", " + std::to_string(run.part().owned_ids.size()) +
+                             " owned of " + std::to_string(run.part().scene->particles.size()) +
+                             " held\n";
+    const std::vector<char> lines = gathered(std::vector<char>(line.begin(), line.end()), true);
+    if (root) log << std::string(lines.begin(), lines.end()) << std::flush;
+  }
 
   RunResult result;
   at_whole_run([&](const Simulation& s) {

@@ -11,6 +11,16 @@ double decomposition_halo(const Particles& particles, double skin) {
   return 2.0 * r_max + 2.0 * skin;
 }
 
+std::vector<double> stepping_costs(const Stepper& stepper) {
+  const NeighborList& list = stepper.neighbors();
+  std::vector<double> costs(list.row_begins().size() - 1, 1.0);
+  for (std::size_t i = 0; i < costs.size(); ++i) {
+    list.for_each_pair_of(
+        i, [&](std::uint32_t) { costs[i] += 1.0; }, [&](std::uint32_t) { costs[i] += 1.0; });
+  }
+  return costs;
+}
+
 RankPart make_rank_part(const Case& c, const Decomposition& decomposition, int rank, double halo,
                         const Particles& all, const StepperState& state) {
   RankPart part;

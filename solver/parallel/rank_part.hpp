@@ -20,6 +20,11 @@ namespace bondem {
 /// less than half a skin since), so that each owned particle's step depends on the halo alone.
 double decomposition_halo(const Particles& particles, double skin);
 
+/// The weights that bisect() balances, per particle of @p stepper's scene in its order: 1 plus
+/// the pairs of the neighbor list the particle belongs to, the work of its sweeps and of its
+/// pairs, so that a heap or a dense bed does not leave the ranks of a dilute region idle.
+std::vector<double> stepping_costs(const Stepper& stepper);
+
 /// A rank's scene, which of its particles it owns (the rest are ghosts, whose state their
 /// owners send after every step) and its stepper. Ownership is kept by id: a list rebuild may
 /// reorder the scene's particles.
