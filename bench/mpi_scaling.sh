@@ -6,7 +6,8 @@
 # alternating; a row keeps the median of the run loop's wall time (bondem's wall_time: the steps
 # and their outputs, not the setup) and the largest resident memory of one process, then checks
 # that every run wrote the same final_state.csv as the first.
-# Usage: bench/mpi_scaling.sh [OUT] [BUILD]   (defaults output/mpi_scaling, build/release)
+# Usage: bench/mpi_scaling.sh [OUT] [BUILD]   (defaults output/mpi_scaling, build/release);
+# LATTICES="100k 1m half_100k half_1m" (default) chooses the rows.
 # Writes OUT/mpi_scaling.csv: lattice,particles,processes,threads,median_loop_s,
 # particle_steps_per_s,total_wall_s,peak_rss_kb_per_process.
 set -euo pipefail
@@ -41,7 +42,7 @@ median() { sort -g | awk '{ v[NR] = $1 } END { print v[int((NR + 1) / 2)] }'; }
 
 echo "lattice,particles,processes,threads,median_loop_s,particle_steps_per_s,total_wall_s,peak_rss_kb_per_process" \
   >"$out/mpi_scaling.csv"
-for lattice in 100k 1m half_100k half_1m; do
+for lattice in ${LATTICES:-100k 1m half_100k half_1m}; do
   case $lattice in
     100k) sets=(--set insert.0.region.max.2=0.0075); particles=102400 ;;
     1m) sets=(); particles=998400 ;;

@@ -251,10 +251,12 @@ struct WholeRun {
 class DistributedRun {
  public:
   /// Distribute @p all (the whole run's particles, with @p state; their bisection weights
-  /// @p costs, stepping_costs()) over the processes.
-  DistributedRun(const Case& description, const Particles& all, const StepperState& state,
+  /// @p costs, stepping_costs()) over the processes, each part a copy of @p frame (the run's scene
+  /// without its particles) with its particles.
+  DistributedRun(Scene frame, const Particles& all, const StepperState& state,
                  const std::vector<double>& costs)
-      : case_(description),
+      : frame_(std::move(frame)),
+        thermal_(all.thermal()),
         contacts_(state.contacts),
         bonds_formed_(state.bonds_formed),
         bonds_broken_(state.bonds_broken) {
@@ -293,14 +295,17 @@ class DistributedRun {
     load_sums_ = summed(part_.stepper->boundary_load_sums());
     timer_.lap(Phase::kTotals);
     if (rebuild) {
-      redistribute();
+      if (!migrate()) redistribute();
       timer_.lap(Phase::kRedistribute);
     }
     return local[1] != 0.0;
   }
 
   /// What this process's steps spent in each phase, in seconds, for BONDEM_MPI_PROFILE.
-  std::string profile() const { return timer_.text(); }
+  std::string profile() const {
+    return timer_.text() + " (rebuilds: " + std::to_string(migrations_) + " migrations, " +
+           std::to_string(redistributions_) + " redistributions)";
+  }
 
   /// The whole run's totals at this step (a history row), on every process.
   RunTotals totals() const {
@@ -318,7 +323,7 @@ class DistributedRun {
     std::uint64_t owned = part_.owned_ids.size();
     MPI_Allreduce(MPI_IN_PLACE, &owned, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
     t.particles = owned;
-    if (p.thermal()) {
+    if (thermal_) {
       ExactSum sum;
       double hottest = -std::numeric_limits<double>::infinity();
       for (std::size_t i = 0; i < p.size(); ++i) {
@@ -380,15 +385,16 @@ class DistributedRun {
     });
     whole.slips = std::move(all_slips);
     WholeRun run;
-    run.scene = std::make_unique<Scene>(build_scene(case_));
+    run.scene = std::make_unique<Scene>(frame_);
     run.scene->particles = std::move(all);
     run.stepper = std::make_unique<Stepper>(*run.scene, std::move(whole));
     return run;
   }
 
   const RankPart& part() const { return part_; }
-  /// Redistributions so far (one per list rebuild).
+  /// Rebuilds so far that moved the cuts (redistributions) or kept them (migrations).
   std::int64_t redistributions() const { return redistributions_; }
+  std::int64_t migrations() const { return migrations_; }
 
  private:
   /// @p records (packed particles of this run) as particles, in their order.
@@ -413,12 +419,14 @@ class DistributedRun {
       pack_particle(all, 0, one);
       record_bytes_ = one.size();
     }
-    const Scene probe = build_scene(case_);
+    const Scene& probe = frame_;
     const double halo = decomposition_halo(all, probe.skin);
     const Decomposition d = bisect(all.x, all.y, all.z, cost, all.id,
                                    Box{probe.domain.min, probe.domain.max}, size, halo);
+    decomposition_ = d;
+    halo_ = halo;
     part_.stepper.reset();  // before the scene it steps
-    part_ = make_rank_part(case_, d, rank, halo, all, state);
+    part_ = make_rank_part(frame_, d, rank, halo, all, state);
 
     // Where each particle of the part sits, by id.
     const Particles& p = part_.scene->particles;
@@ -466,7 +474,7 @@ class DistributedRun {
     Particles& p = part_.scene->particles;
     std::vector<StaggeredVector<double>*> fields{&p.x,  &p.y,  &p.z,  &p.vx, &p.vy,
                                                  &p.vz, &p.wx, &p.wy, &p.wz};
-    if (p.thermal()) fields.push_back(&p.temperature);
+    if (thermal_) fields.push_back(&p.temperature);
     const std::size_t width = fields.size();
     std::vector<int> send_counts(static_cast<std::size_t>(size)), send_offsets(send_counts.size());
     std::vector<int> receive_counts(send_counts.size()), receive_offsets(send_counts.size());
@@ -494,8 +502,165 @@ class DistributedRun {
     }
   }
 
-  /// After a rebuild: every process's owned particles and pairs' state, distributed anew over
-  /// cuts of the particles' new positions.
+  /// Every process sends @p out[r] to process r; returns what it receives, concatenated in rank
+  /// order, with the bytes from each process in @p counts.
+  static std::vector<char> exchanged(const std::vector<std::vector<char>>& out,
+                                     std::vector<int>& counts) {
+    const auto size = static_cast<std::size_t>(world_size());
+    std::vector<int> send_counts(size), send_offsets(size), receive_offsets(size);
+    std::vector<char> sent;
+    for (std::size_t r = 0; r < size; ++r) {
+      send_offsets[r] = static_cast<int>(sent.size());
+      send_counts[r] = static_cast<int>(out[r].size());
+      sent.insert(sent.end(), out[r].begin(), out[r].end());
+    }
+    counts.assign(size, 0);
+    MPI_Alltoall(send_counts.data(), 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
+    int total = 0;
+    for (std::size_t r = 0; r < size; ++r) {
+      receive_offsets[r] = total;
+      total += counts[r];
+    }
+    std::vector<char> received(static_cast<std::size_t>(total));
+    MPI_Alltoallv(sent.data(), send_counts.data(), send_offsets.data(), MPI_BYTE, received.data(),
+                  counts.data(), receive_offsets.data(), MPI_BYTE, MPI_COMM_WORLD);
+    return received;
+  }
+
+  /// exchanged() of the pairs' state @p slips[r] for each process r.
+  static std::vector<SlipRecord> exchanged(const std::vector<std::vector<SlipRecord>>& slips) {
+    std::vector<std::vector<char>> out;
+    for (const std::vector<SlipRecord>& some : slips) out.push_back(bytes_of(some));
+    std::vector<int> counts;
+    return values_of<SlipRecord>(exchanged(out, counts));
+  }
+
+  /// After a rebuild whose cuts still balance the work (the most loaded process within
+  /// kRebalanceAbove of the mean, by stepping_costs()): the particles that crossed a cut go to
+  /// their new owners with the state of the pairs they lead, then each process sends the others
+  /// its particles in their halos, whole, with the pairs those lead; nothing else travels.
+  /// Returns false, having changed nothing, when the cuts no longer balance the work.
+  bool migrate() {
+    const int size = world_size();
+    const int rank = world_rank();
+    const auto processes = static_cast<std::size_t>(size);
+    const Particles& p = part_.scene->particles;
+    const std::vector<double> costs = stepping_costs(*part_.stepper);  // of the new list
+    double load[2] = {0.0, 0.0};  // the most loaded process's, and the total
+    for (std::size_t k = 0; k < p.size(); ++k) {
+      if (part_.owns(p.id[k])) load[0] += costs[k];
+    }
+    load[1] = load[0];
+    MPI_Allreduce(MPI_IN_PLACE, &load[0], 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+    MPI_Allreduce(MPI_IN_PLACE, &load[1], 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+    if (load[0] > (1.0 + kRebalanceAbove) * load[1] / size) return false;
+    ++migrations_;
+
+    // 1. Each owned particle to the owner of its position, with the pairs it leads.
+    std::vector<int> new_owner(p.size(), -1);
+    std::vector<std::uint32_t> kept;
+    std::vector<std::vector<char>> leaving(processes);
+    for (std::size_t k = 0; k < p.size(); ++k) {
+      if (!part_.owns(p.id[k])) continue;
+      new_owner[k] = decomposition_.owner(p.x[k], p.y[k], p.z[k]);
+      if (new_owner[k] == rank) {
+        kept.push_back(static_cast<std::uint32_t>(k));
+      } else {
+        pack_particle(p, k, leaving[static_cast<std::size_t>(new_owner[k])]);
+      }
+    }
+    std::vector<std::pair<std::int64_t, std::uint32_t>> index_of(p.size());
+    for (std::size_t k = 0; k < p.size(); ++k) {
+      index_of[k] = {p.id[k], static_cast<std::uint32_t>(k)};
+    }
+    std::sort(index_of.begin(), index_of.end());
+    std::vector<SlipRecord> owned_slips;  // of the pairs the particles owned from now on lead
+    std::vector<std::vector<SlipRecord>> leaving_slips(processes);
+    std::vector<std::uint32_t> rows(p.size());
+    for (std::size_t k = 0; k < rows.size(); ++k) rows[k] = static_cast<std::uint32_t>(k);
+    part_.stepper->for_each_slip(rows, [&](const SlipRecord& slip) {
+      const std::uint32_t k =
+          std::lower_bound(index_of.begin(), index_of.end(), std::pair(slip.first_id, 0U))->second;
+      if (new_owner[k] < 0) return;  // led by a ghost: its owner sends it
+      if (new_owner[k] == rank) {
+        owned_slips.push_back(slip);
+      } else {
+        leaving_slips[static_cast<std::size_t>(new_owner[k])].push_back(slip);
+      }
+    });
+    std::vector<int> counts;
+    const std::vector<char> arrived = exchanged(leaving, counts);
+    const std::vector<SlipRecord> arrived_slips = exchanged(leaving_slips);
+    owned_slips.insert(owned_slips.end(), arrived_slips.begin(), arrived_slips.end());
+    Particles next = p.selected(kept);
+    const Particles newcomers = particles_from(arrived);
+    for (std::size_t k = 0; k < newcomers.size(); ++k) append_particle(newcomers, k, next);
+    const std::size_t owned = next.size();
+
+    // 2. Each process's particles in another's halo, whole, with the pairs they lead.
+    std::vector<std::pair<std::int64_t, std::uint32_t>> owned_index(owned);
+    for (std::size_t k = 0; k < owned; ++k) {
+      owned_index[k] = {next.id[k], static_cast<std::uint32_t>(k)};
+    }
+    std::sort(owned_index.begin(), owned_index.end());
+    std::vector<std::vector<std::uint32_t>> ghost_sends(processes);
+    std::vector<std::vector<char>> ghost_records(processes);
+    std::vector<std::vector<SlipRecord>> ghost_slips(processes);
+    for (int r = 0; r < size; ++r) {
+      if (r == rank) continue;
+      const auto ur = static_cast<std::size_t>(r);
+      ghost_sends[ur] =
+          subdomain_members(decomposition_, r, frame_.domain, halo_, next.x, next.y, next.z);
+      std::vector<std::uint8_t> sent(owned, 0);
+      for (const std::uint32_t k : ghost_sends[ur]) {
+        pack_particle(next, k, ghost_records[ur]);
+        sent[k] = 1;
+      }
+      for (const SlipRecord& slip : owned_slips) {
+        const std::uint32_t k =
+            std::lower_bound(owned_index.begin(), owned_index.end(), std::pair(slip.first_id, 0U))
+                ->second;
+        if (sent[k] != 0) ghost_slips[ur].push_back(slip);
+      }
+    }
+    const std::vector<char> ghosts_arrived = exchanged(ghost_records, counts);
+    const std::vector<SlipRecord> ghost_slips_arrived = exchanged(ghost_slips);
+    const Particles ghosts = particles_from(ghosts_arrived);
+    for (std::size_t k = 0; k < ghosts.size(); ++k) append_particle(ghosts, k, next);
+    // The ghost refresh: the same particles, in the same order, from the same owners.
+    sends_ = std::move(ghost_sends);
+    receives_.assign(processes, {});
+    auto at = static_cast<std::uint32_t>(owned);
+    for (std::size_t r = 0; r < processes; ++r) {
+      const std::size_t records = static_cast<std::size_t>(counts[r]) / record_bytes_;
+      for (std::size_t n = 0; n < records; ++n) receives_[r].push_back(at++);
+    }
+
+    // 3. The new part: its list from the positions of this rebuild, the pairs' state by ids.
+    StepperState state = part_.stepper->save_state(SavedArrays::kOmitted);
+    state.list.x0 = next.x;
+    state.list.y0 = next.y;
+    state.list.z0 = next.z;
+    state.slips = std::move(owned_slips);
+    state.slips.insert(state.slips.end(), ghost_slips_arrived.begin(), ghost_slips_arrived.end());
+    std::sort(state.slips.begin(), state.slips.end(), [](const SlipRecord& a, const SlipRecord& b) {
+      return std::pair(a.first_id, a.second_id) < std::pair(b.first_id, b.second_id);
+    });
+    RankPart fresh;
+    fresh.scene = std::make_unique<Scene>(frame_);
+    fresh.scene->particles = std::move(next);
+    const auto& ids = fresh.scene->particles.id;
+    fresh.owned_ids.assign(ids.begin(), ids.begin() + static_cast<std::ptrdiff_t>(owned));
+    std::sort(fresh.owned_ids.begin(), fresh.owned_ids.end());
+    fresh.stepper = std::make_unique<Stepper>(*fresh.scene, std::move(state));
+    fresh.stepper->count_only(fresh.owned_ids);
+    part_.stepper.reset();  // before the scene it steps
+    part_ = std::move(fresh);
+    return true;
+  }
+
+  /// After a rebuild that unbalanced the cuts: every process's owned particles and pairs' state,
+  /// distributed anew over cuts of the particles' new positions (migration and rebalancing).
   void redistribute() {
     ++redistributions_;
     const Particles& p = part_.scene->particles;
@@ -518,7 +683,13 @@ class DistributedRun {
                values_of<double>(gathered(bytes_of(owned_costs))));
   }
 
-  const Case& case_;
+  /// The load above the mean (by stepping_costs()) at which a rebuild moves the cuts.
+  static constexpr double kRebalanceAbove = 0.05;
+
+  Scene frame_;                  ///< the run's scene without particles: what each part copies
+  Decomposition decomposition_;  ///< the cuts of the last redistribution
+  double halo_ = 0.0;
+  bool thermal_;  ///< the run's (a process may hold no particle to tell)
   RankPart part_;
   Particles one_particle_;  ///< a particle of the run: the fields every record carries
   std::size_t record_bytes_ = 0;
@@ -529,6 +700,7 @@ class DistributedRun {
   std::vector<ExactSum> load_sums_;
   std::int64_t bonds_formed_ = 0, bonds_broken_ = 0;
   std::int64_t redistributions_ = 0;
+  std::int64_t migrations_ = 0;
   PhaseTimer timer_;
 };
 
@@ -548,6 +720,9 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
     }
     plan = plan_run(description, options);
     scene.emplace(build_scene(description));
+    // As in run_case: the scene holds the particles, the plan what was derived from them.
+    std::vector<ParticleSpec>().swap(description.particles);
+    std::vector<SlipRecord>().swap(description.initial_pairs);
     if (plan.restarting) {
       Checkpoint restored = read_fitting_checkpoint(description, options, plan, *scene);
       plan.first_step = restored.stepper.step;
@@ -569,8 +744,15 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
     if (root) prepare_output_directory(description, options, plan);
   });
 
-  DistributedRun run(description, scene->particles, state, costs);
-  scene.reset();  // each process now holds its part only
+  std::optional<DistributedRun> run_part;
+  {
+    const Particles all = std::move(scene->particles);
+    scene->particles = Particles{};
+    scene->initial_pairs = std::vector<SlipRecord>{};
+    run_part.emplace(std::move(*scene), all, state, costs);
+  }  // each process now holds its part only
+  DistributedRun& run = *run_part;
+  scene.reset();
   state = StepperState{};
 
   // Rank 0 writes the history, the checkpoints and the end-of-run files.

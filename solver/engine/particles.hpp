@@ -121,6 +121,15 @@ struct Particles {
   /// order shorter than size() drops the particles it leaves out.
   void permute(const std::vector<std::uint32_t>& order);
 
+  /// The particles at @p order (indices into these) in that order, as permute() would leave a
+  /// copy, without copying the others first.
+  Particles selected(const std::vector<std::uint32_t>& order) const;
+
+ private:
+  /// Every field of @p from gathered at @p order into @p to (which may be @p from).
+  static void gather(const Particles& from, const std::vector<std::uint32_t>& order, Particles& to);
+
+ public:
   /// Start tracking temperatures: every kThermal field gets a zero per particle, for the scene
   /// to fill in (a thermal field added to the table then needs no line of its own there).
   void track_temperatures();
@@ -292,14 +301,31 @@ inline void Particles::assign_zeros(std::size_t count) {
 }
 
 inline void Particles::permute(const std::vector<std::uint32_t>& order) {
+  gather(*this, order, *this);
+}
+
+inline Particles Particles::selected(const std::vector<std::uint32_t>& order) const {
+  Particles chosen;
+  // Every member that is not a field of kParticleFields.
+  chosen.displacement_tracked = displacement_tracked;
+  chosen.walls = walls;
+  chosen.contact_history = contact_history;
+  chosen.mesh_contacts = mesh_contacts;
+  chosen.temperatures_tracked = temperatures_tracked;
+  gather(*this, order, chosen);
+  return chosen;
+}
+
+inline void Particles::gather(const Particles& from, const std::vector<std::uint32_t>& order,
+                              Particles& to) {
   for (const ParticleField& field : kParticleFields) {
     if (!has(field, kReordered)) continue;
-    const std::size_t stride = values_per_particle(field, *this);
+    const std::size_t stride = values_per_particle(field, from);
     std::visit(
         [&](auto member) {
-          auto& values = this->*member;
+          const auto& values = from.*member;
           if (values.empty()) return;  // thermal fields of a run without temperatures
-          std::remove_reference_t<decltype(values)> reordered(order.size() * stride);
+          std::remove_cvref_t<decltype(values)> reordered(order.size() * stride);
           if (stride == 1) {
             for (std::size_t k = 0; k < order.size(); ++k) reordered[k] = values[order[k]];
           } else {
@@ -308,7 +334,7 @@ inline void Particles::permute(const std::vector<std::uint32_t>& order) {
                           reordered.begin() + static_cast<std::ptrdiff_t>(k * stride));
             }
           }
-          values.swap(reordered);
+          (to.*member).swap(reordered);  // after reading: `to` may be `from`
         },
         field.member);
   }

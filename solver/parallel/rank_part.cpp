@@ -21,14 +21,25 @@ std::vector<double> stepping_costs(const Stepper& stepper) {
   return costs;
 }
 
+Scene scene_frame(const Case& c) {
+  Scene frame = build_scene(c);
+  frame.particles = Particles{};
+  frame.initial_pairs = std::vector<SlipRecord>{};
+  return frame;
+}
+
 RankPart make_rank_part(const Case& c, const Decomposition& decomposition, int rank, double halo,
                         const Particles& all, const StepperState& state) {
+  return make_rank_part(scene_frame(c), decomposition, rank, halo, all, state);
+}
+
+RankPart make_rank_part(const Scene& frame, const Decomposition& decomposition, int rank,
+                        double halo, const Particles& all, const StepperState& state) {
   RankPart part;
-  part.scene = std::make_unique<Scene>(build_scene(c));
+  part.scene = std::make_unique<Scene>(frame);
   const std::vector<std::uint32_t> members =
       subdomain_members(decomposition, rank, part.scene->domain, halo, all.x, all.y, all.z);
-  part.scene->particles = all;
-  part.scene->particles.permute(members);
+  part.scene->particles = all.selected(members);
   StepperState restored = state;
   for (StaggeredVector<double>* axis : {&restored.list.x0, &restored.list.y0, &restored.list.z0}) {
     StaggeredVector<double> subset(members.size());

@@ -39,12 +39,20 @@ struct RankPart {
   }
 };
 
-/// Rank @p rank's part of @p all under @p decomposition: the scene of case @p c with the owned
-/// particles and those within @p halo, its stepper continuing @p state (whose list build
-/// positions are those of @p all; its pairs' state is taken by the particles' ids), counting
-/// only the owned particles' share (Stepper::count_only).
+/// Rank @p rank's part of @p all under @p decomposition: a copy of @p frame (a scene of the
+/// run; its particles are not read: pass it without them, scene_frame()) with the owned particles
+/// and those within @p halo, its stepper continuing @p state (whose list build positions are
+/// those of @p all; its pairs' state is taken by the particles' ids), counting only the owned
+/// particles' share (Stepper::count_only).
+RankPart make_rank_part(const Scene& frame, const Decomposition& decomposition, int rank,
+                        double halo, const Particles& all, const StepperState& state);
+
+/// The same, with the frame built from case @p c.
 RankPart make_rank_part(const Case& c, const Decomposition& decomposition, int rank, double halo,
                         const Particles& all, const StepperState& state);
+
+/// The scene of case @p c without its particles and initial pairs: what every rank part copies.
+Scene scene_frame(const Case& c);
 
 /// The state to distribute @p all from right after a list rebuild: @p state (any rank's: time,
 /// step, boundaries and the build count are the same on all) with the list's build positions set
