@@ -13,6 +13,7 @@
 #include <memory>
 #include <optional>
 #include <ostream>
+#include <span>
 #include <sstream>
 #include <utility>
 #include <variant>
@@ -569,25 +570,16 @@ class DistributedRun {
         pack_particle(p, k, leaving[static_cast<std::size_t>(new_owner[k])]);
       }
     }
-    std::vector<std::pair<std::int64_t, std::uint32_t>> index_of(p.size());
-    for (std::size_t k = 0; k < p.size(); ++k) {
-      index_of[k] = {p.id[k], static_cast<std::uint32_t>(k)};
-    }
-    std::sort(index_of.begin(), index_of.end());
     std::vector<SlipRecord> owned_slips;  // of the pairs the particles owned from now on lead
     std::vector<std::vector<SlipRecord>> leaving_slips(processes);
-    std::vector<std::uint32_t> rows(p.size());
-    for (std::size_t k = 0; k < rows.size(); ++k) rows[k] = static_cast<std::uint32_t>(k);
-    part_.stepper->for_each_slip(rows, [&](const SlipRecord& slip) {
-      const std::uint32_t k =
-          std::lower_bound(index_of.begin(), index_of.end(), std::pair(slip.first_id, 0U))->second;
-      if (new_owner[k] < 0) return;  // led by a ghost: its owner sends it
-      if (new_owner[k] == rank) {
-        owned_slips.push_back(slip);
-      } else {
-        leaving_slips[static_cast<std::size_t>(new_owner[k])].push_back(slip);
-      }
-    });
+    for (std::uint32_t k = 0; k < p.size(); ++k) {
+      if (new_owner[k] < 0) continue;  // a ghost's pairs: its owner sends them
+      std::vector<SlipRecord>& to = new_owner[k] == rank
+                                        ? owned_slips
+                                        : leaving_slips[static_cast<std::size_t>(new_owner[k])];
+      part_.stepper->for_each_slip(std::span(&k, 1),
+                                   [&](const SlipRecord& slip) { to.push_back(slip); });
+    }
     std::vector<int> counts;
     const std::vector<char> arrived = exchanged(leaving, counts);
     const std::vector<SlipRecord> arrived_slips = exchanged(leaving_slips);
