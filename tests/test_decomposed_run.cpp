@@ -243,3 +243,35 @@ TEST(DecomposedRun, EveryParticleFollowsTheWholeRunBitForBit) {
 
 }  // namespace
 }  // namespace bondem
+
+namespace bondem {
+namespace {
+
+TEST(DecomposedRun, ARankThatOwnsNothingCountsNothing) {
+  // count_only() with no id (a rank left with ghosts only) must count none of its particles'
+  // share, not all of it: the ranks' shares would otherwise add up to more than the whole run.
+  const Case c = parse_case(testing::file_bytes(BONDEM_TEST_CASES_DIR "/storage_order.yaml"),
+                            "storage_order.yaml");
+  Scene counting = build_scene(c);
+  Scene silent = build_scene(c);
+  Stepper all(counting);
+  Stepper none(silent);
+  none.count_only({});
+  for (int s = 0; s < 200; ++s) {
+    all.step();
+    none.step();
+  }
+  ASSERT_GT(all.contacts().contacts, 0u);
+  ASSERT_GT(all.kinetic_energy(), 0.0);
+  EXPECT_EQ(none.contacts().contacts, 0u);
+  EXPECT_EQ(none.contacts().wall_contacts, 0u);
+  EXPECT_EQ(none.kinetic_energy(), 0.0);
+  for (const BoundaryLoad& load : none.boundary_loads()) {
+    EXPECT_EQ(load.force, Eigen::Vector3d::Zero());
+  }
+  // The largest overlap is a maximum over every pair held, counted or not.
+  EXPECT_EQ(none.contacts().max_overlap, all.contacts().max_overlap);
+}
+
+}  // namespace
+}  // namespace bondem

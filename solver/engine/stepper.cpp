@@ -571,11 +571,12 @@ ExactSum Stepper::rotational_energy_sum() const {
 
 void Stepper::count_only(std::vector<std::int64_t> owned_ids) {
   counted_ids_ = std::move(owned_ids);
+  share_only_ = true;  // even with no id: a rank that owns nothing counts nothing
   mark_counted();
 }
 
 void Stepper::mark_counted() {
-  if (counted_ids_.empty()) {
+  if (!share_only_) {
     counted_.clear();
     return;
   }

@@ -155,7 +155,7 @@ class Stepper {
   /// run's ranks thus count disjoint shares that add up to the whole run's figures; the largest
   /// overlaps still take every pair (a maximum over the ranks is the whole run's).
   void count_only(std::vector<std::int64_t> owned_ids);
-  /// Per particle, 1 where it counts (count_only()); empty: every particle counts.
+  /// Per particle, 1 where it counts (count_only()); empty without count_only(): all count.
   const std::vector<std::uint8_t>& counted() const { return counted_; }
   /// Bonds formed so far (a pair joining the adhesive branch of eq. 25).
   std::int64_t bonds_formed() const { return bonds_formed_; }
@@ -260,7 +260,8 @@ class Stepper {
   LaserScratch laser_scratch_;
   double laser_power_ = 0.0;  ///< absorbed in the last evaluation [W]
   double laser_missed_power_ = 0.0;
-  std::vector<std::int64_t> counted_ids_;  ///< count_only()'s ids, sorted; empty: all count
+  std::vector<std::int64_t> counted_ids_;  ///< count_only()'s ids, sorted
+  bool share_only_ = false;                ///< count_only() was called
   std::vector<std::uint8_t> counted_;      ///< per particle, from counted_ids_ at every build
   std::vector<ParticleTally> streams_;     ///< per scene stream
   std::int64_t next_id_ = 0;               ///< id of the next inserted particle

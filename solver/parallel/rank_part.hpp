@@ -25,8 +25,8 @@ double decomposition_halo(const Particles& particles, double skin);
 /// pairs, so that a heap or a dense bed does not leave the ranks of a dilute region idle.
 std::vector<double> stepping_costs(const Stepper& stepper);
 
-/// A rank's scene, which of its particles it owns (the rest are ghosts, whose state their
-/// owners send after every step) and its stepper. Ownership is kept by id: a list rebuild may
+/// A rank's scene, which of its particles it owns (the rest are ghosts, which their owners
+/// refresh every step) and its stepper. Ownership is kept by id: a list rebuild may
 /// reorder the scene's particles.
 struct RankPart {
   std::unique_ptr<Scene> scene;
