@@ -21,6 +21,7 @@
 
 #include "io/case_file.hpp"
 #include "io/checkpoint.hpp"
+#include "io/mpi_world.hpp"
 #include "io/run_observers.hpp"
 #include "io/run_plan.hpp"
 #include "solver/driver/history.hpp"
@@ -56,18 +57,6 @@ std::string distributed_run_limits(const Case& description) {
 }
 
 namespace {
-
-int world_rank() {
-  int rank = 0;
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-  return rank;
-}
-
-int world_size() {
-  int size = 1;
-  MPI_Comm_size(MPI_COMM_WORLD, &size);
-  return size;
-}
 
 /// The kinds of error that every process rethrows when one throws it.
 enum class ErrorKind : int { kNone, kCase, kBlowUp, kInterrupted, kInvalidArgument, kOther };
@@ -120,47 +109,6 @@ void together(Action&& action) {
     default:
       throw std::runtime_error(message);
   }
-}
-
-/// Every process's @p mine, concatenated in rank order, on every process (@p at_root_only: on
-/// rank 0 only; the others get nothing).
-std::vector<char> gathered(const std::vector<char>& mine, bool at_root_only = false) {
-  const int size = world_size();
-  const int bytes = static_cast<int>(mine.size());
-  std::vector<int> counts(static_cast<std::size_t>(size)), offsets(static_cast<std::size_t>(size));
-  MPI_Allgather(&bytes, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
-  int total = 0;
-  for (int r = 0; r < size; ++r) {
-    offsets[static_cast<std::size_t>(r)] = total;
-    total += counts[static_cast<std::size_t>(r)];
-  }
-  std::vector<char> all;
-  if (at_root_only) {
-    if (world_rank() == 0) all.resize(static_cast<std::size_t>(total));
-    MPI_Gatherv(mine.data(), bytes, MPI_BYTE, all.data(), counts.data(), offsets.data(), MPI_BYTE,
-                0, MPI_COMM_WORLD);
-  } else {
-    all.resize(static_cast<std::size_t>(total));
-    MPI_Allgatherv(mine.data(), bytes, MPI_BYTE, all.data(), counts.data(), offsets.data(),
-                   MPI_BYTE, MPI_COMM_WORLD);
-  }
-  return all;
-}
-
-/// The bytes of @p values.
-template <class T>
-std::vector<char> bytes_of(const std::vector<T>& values) {
-  std::vector<char> bytes(values.size() * sizeof(T));
-  if (!bytes.empty()) std::memcpy(bytes.data(), values.data(), bytes.size());
-  return bytes;
-}
-
-/// The values whose bytes are @p bytes.
-template <class T>
-std::vector<T> values_of(const std::vector<char>& bytes) {
-  std::vector<T> values(bytes.size() / sizeof(T));
-  if (!values.empty()) std::memcpy(values.data(), bytes.data(), values.size() * sizeof(T));
-  return values;
 }
 
 /// The exact sums @p mine of every process added up, on every process: their digits are added

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "io/case_file.hpp"
+#include "io/mpi_world.hpp"
 #include "run_helpers.hpp"
 #include "solver/engine/scene.hpp"
 #include "solver/engine/stepper.hpp"
@@ -24,35 +25,6 @@
 
 namespace bondem {
 namespace {
-
-int world_rank() {
-  int rank = 0;
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-  return rank;
-}
-
-int world_size() {
-  int size = 1;
-  MPI_Comm_size(MPI_COMM_WORLD, &size);
-  return size;
-}
-
-/// Every process's @p mine, concatenated in rank order, on every process.
-std::vector<char> all_gathered(const std::vector<char>& mine) {
-  const int size = world_size();
-  const int bytes = static_cast<int>(mine.size());
-  std::vector<int> counts(static_cast<std::size_t>(size)), offsets(static_cast<std::size_t>(size));
-  MPI_Allgather(&bytes, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
-  int total = 0;
-  for (int r = 0; r < size; ++r) {
-    offsets[static_cast<std::size_t>(r)] = total;
-    total += counts[static_cast<std::size_t>(r)];
-  }
-  std::vector<char> gathered(static_cast<std::size_t>(total));
-  MPI_Allgatherv(mine.data(), bytes, MPI_BYTE, gathered.data(), counts.data(), offsets.data(),
-                 MPI_BYTE, MPI_COMM_WORLD);
-  return gathered;
-}
 
 /// This process's rank of a decomposed run.
 class MpiRankRun {
@@ -110,7 +82,7 @@ class MpiRankRun {
 
   /// Every ghost takes its owner's state, from every process's owned particles.
   void refresh_ghosts() {
-    const std::vector<char> all = all_gathered(packed_owned());
+    const std::vector<char> all = gathered(packed_owned());
     Particles& p = part_.scene->particles;
     std::map<std::int64_t, std::size_t> ghost_of;
     for (std::size_t k = 0; k < p.size(); ++k) {
@@ -128,18 +100,14 @@ class MpiRankRun {
 
   /// After a rebuild: every process's owned particles and pairs' state, distributed anew.
   void gather_and_distribute() {
-    const std::vector<char> bytes = all_gathered(packed_owned());
+    const std::vector<char> bytes = gathered(packed_owned());
     const std::size_t record = record_bytes();
     Particles all = part_.scene->particles;
     all.permute(std::vector<std::uint32_t>(bytes.size() / record, 0));
     for (std::size_t k = 0; k < all.size(); ++k) unpack_particle(bytes.data() + k * record, all, k);
     // The pairs' state of every process (a pair two processes hold is the same).
     const StepperState mine = part_.stepper->save_state();
-    std::vector<char> slip_bytes(mine.slips.size() * sizeof(SlipRecord));
-    std::memcpy(slip_bytes.data(), mine.slips.data(), slip_bytes.size());
-    const std::vector<char> every_slip = all_gathered(slip_bytes);
-    std::vector<SlipRecord> slips(every_slip.size() / sizeof(SlipRecord));
-    std::memcpy(slips.data(), every_slip.data(), every_slip.size());
+    std::vector<SlipRecord> slips = values_of<SlipRecord>(gathered(bytes_of(mine.slips)));
     distribute(all, redistribution_state(mine, all, std::move(slips)));
   }
 
