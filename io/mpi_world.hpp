@@ -50,6 +50,31 @@ inline std::vector<char> gathered(const std::vector<char>& mine, bool at_root_on
   return all;
 }
 
+/// Every process sends @p out[r] to process r; returns what it receives, concatenated in rank
+/// order, with the bytes from each process in @p counts.
+inline std::vector<char> exchanged(const std::vector<std::vector<char>>& out,
+                                   std::vector<int>& counts) {
+  const auto size = static_cast<std::size_t>(world_size());
+  std::vector<int> send_counts(size), send_offsets(size), receive_offsets(size);
+  std::vector<char> sent;
+  for (std::size_t r = 0; r < size; ++r) {
+    send_offsets[r] = static_cast<int>(sent.size());
+    send_counts[r] = static_cast<int>(out[r].size());
+    sent.insert(sent.end(), out[r].begin(), out[r].end());
+  }
+  counts.assign(size, 0);
+  MPI_Alltoall(send_counts.data(), 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
+  int total = 0;
+  for (std::size_t r = 0; r < size; ++r) {
+    receive_offsets[r] = total;
+    total += counts[r];
+  }
+  std::vector<char> received(static_cast<std::size_t>(total));
+  MPI_Alltoallv(sent.data(), send_counts.data(), send_offsets.data(), MPI_BYTE, received.data(),
+                counts.data(), receive_offsets.data(), MPI_BYTE, MPI_COMM_WORLD);
+  return received;
+}
+
 /// The bytes of @p values.
 template <class T>
 inline std::vector<char> bytes_of(const std::vector<T>& values) {

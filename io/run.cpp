@@ -14,6 +14,7 @@
 #include <limits>
 #include <optional>
 #include <ostream>
+#include <regex>
 #include <sstream>
 #include <string_view>
 
@@ -158,24 +159,14 @@ void probe_output_directory(const std::filesystem::path& directory, const std::s
   if (error) refuse("a test file cannot be removed: " + error.message());
 }
 
-/// True for a VTK series file: a collection `<kind>.pvd` or a frame `<kind>_NNNNNN.vtp` (six or
-/// more digits) of the particles, contacts, walls or tools.
+/// True for a VTK series file: a collection `<kind>.pvd`, a frame `<kind>_NNNNNN.vtp` (six or
+/// more digits) of the particles, contacts, walls or tools, or a distributed run's piece
+/// `<kind>_NNNNNN_P.vtp` and summary `<kind>_NNNNNN.pvtp`.
 bool is_vtk_series(const std::string& name) {
-  if (name == "domain.vtp") return true;
-  for (const std::string kind : {"particles", "contacts", "bonds", "walls", "tools"}) {
-    if (name == kind + ".pvd") return true;
-    const std::size_t first_digit = kind.size() + 1;
-    if (name.size() < first_digit + 6 + 4 || name.compare(0, first_digit, kind + "_") != 0 ||
-        name.compare(name.size() - 4, 4, ".vtp") != 0) {
-      continue;
-    }
-    const auto digits_end = name.end() - 4;
-    if (std::all_of(name.begin() + static_cast<std::ptrdiff_t>(first_digit), digits_end,
-                    [](char c) { return c >= '0' && c <= '9'; })) {
-      return true;
-    }
-  }
-  return false;
+  static const std::regex frame(
+      "(particles|contacts|bonds|walls|tools)(\\.pvd|_[0-9]{6,}(_[0-9]+)?\\.vtp|_[0-9]{6,}\\."
+      "pvtp)");
+  return name == "domain.vtp" || std::regex_match(name, frame);
 }
 
 /// True for the names of the files bondem's runs write (outputs, VTK series), and only those.

@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <exception>
+#include <filesystem>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -24,6 +25,7 @@
 #include "io/mpi_world.hpp"
 #include "io/run_observers.hpp"
 #include "io/run_plan.hpp"
+#include "io/vtk_output.hpp"
 #include "solver/driver/history.hpp"
 #include "solver/driver/progress.hpp"
 #include "solver/driver/run_analysis.hpp"
@@ -45,7 +47,6 @@ std::string distributed_run_limits(const Case& description) {
     return prefix + "'domain.remove_outside'" + later;
   }
   if (description.laser) return prefix + "'laser'" + later;
-  if (description.vtk_interval > 0.0) return prefix + "'output.vtk_interval' (VTK frames)" + later;
   if (description.state_interval > 0.0) return prefix + "'output.state_interval'" + later;
   if (description.layers) return prefix + "'analysis.layers'" + later;
   for (const Boundary& wall : description.boundaries) {
@@ -185,6 +186,152 @@ class PhaseTimer {
   using Clock = std::chrono::steady_clock;
   Clock::time_point last_;
   std::array<double, static_cast<std::size_t>(Phase::kCount)> seconds_{};
+};
+
+/// A contact of a VTK frame as it travels between processes (ContactRecord, flat).
+struct ContactBytes {
+  std::int64_t id_i, id_j;
+  double first[3], second[3], force[3];
+  double overlap, normal_force;
+  std::uint8_t bonded;
+};
+
+/// The VTK frames of a distributed run. Process r writes piece r of each frame: the particles
+/// whose id modulo the number of processes is r, and the contacts whose smaller id is one of
+/// theirs. The pieces follow the ids, not the cuts, so a frame's files do not depend on where the
+/// cuts fell: a restart on as many processes writes the uninterrupted run's bytes. Each process
+/// derives what it counts (coordination, bond count, contacts) and sends it to the piece's writer.
+class PieceFrames {
+ public:
+  /// Frames into @p directory every @p every steps with the particle arrays @p fields (empty:
+  /// all); @p scene: the run's, with a particle of the run (the fields every record carries).
+  PieceFrames(const std::filesystem::path& directory, std::int64_t every,
+              std::vector<std::string> fields, const Scene& scene)
+      : every_(every),
+        writer_(directory.string()),
+        one_particle_(scene.particles.selected(scene.particles.size() > 0
+                                                   ? std::vector<std::uint32_t>{0}
+                                                   : std::vector<std::uint32_t>{})) {
+    writer_.select_particle_arrays(std::move(fields));
+    writer_.set_pieces(world_rank(), world_size());
+    writer_.set_material_names(scene.material_names);
+    writer_.set_bonds_series(some_pair_can_bond(scene));
+  }
+
+  /// As VtkFrames::resume: keep the frames an uninterrupted run writes up to @p checkpoint_step.
+  /// Process 0 trims the series; every process learns which frames stay.
+  void resume(const Scene& scene, std::int64_t checkpoint_step, double time_step) {
+    writer_.resume(
+        [&](double time) {
+          const std::int64_t step = std::llround(time / time_step);
+          return step <= checkpoint_step && step % every_ == 0;
+        },
+        scene.boundaries, scene.domain);
+  }
+
+  std::int64_t every() const { return every_; }
+
+  /// Write a frame of @p scene stepped by @p stepper (a process's part, or on every process the
+  /// whole run), from the particles @p counts (by id) and the contacts whose smaller id it counts;
+  /// @p loads: the whole run's boundary loads. Every process calls it; the frame is listed once
+  /// every piece is written.
+  template <class Counts>
+  void write(const Scene& scene, const Stepper& stepper, Counts&& counts,
+             std::vector<BoundaryLoad> loads) {
+    const auto processes = static_cast<std::size_t>(world_size());
+    const Particles& p = scene.particles;
+    const NeighborList& list = stepper.neighbors();
+    const PairForces& forces = stepper.pair_forces();
+    std::vector<double> coordination(p.size(), 0.0), bond_count(p.size(), 0.0);
+    std::vector<std::vector<ContactBytes>> contacts(processes);
+    list.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
+      // As VtkFrames::write: the image of j is formed as a point first.
+      const Eigen::Vector3d first(p.x[i], p.y[i], p.z[i]);
+      const Eigen::Vector3d second = Eigen::Vector3d(p.x[j], p.y[j], p.z[j]) + list.shift(k);
+      const Eigen::Vector3d d = second - first;
+      const double overlap = p.radius[i] + p.radius[j] - d.norm();
+      if (overlap <= 0.0) return;
+      const bool bonded = forces.bonded[k] != 0;
+      coordination[i] += 1.0;
+      coordination[j] += 1.0;
+      bond_count[i] += bonded ? 1.0 : 0.0;
+      bond_count[j] += bonded ? 1.0 : 0.0;
+      if (!counts(p.id[i])) return;  // the pair's smaller id leads it
+      const Eigen::Vector3d force(forces.fx[k], forces.fy[k], forces.fz[k]);
+      ContactBytes c{p.id[i], p.id[j], {}, {}, {}, overlap, force.dot(d.normalized()), bonded};
+      for (int a = 0; a < 3; ++a) {
+        c.first[a] = first[a];
+        c.second[a] = second[a];
+        c.force[a] = force[a];
+      }
+      contacts[piece_of(p.id[i])].push_back(c);
+    });
+    std::vector<std::vector<char>> records(processes);
+    std::vector<std::vector<double>> derived(processes);  // coordination, bond count
+    for (std::size_t i = 0; i < p.size(); ++i) {
+      if (!counts(p.id[i])) continue;
+      const std::size_t piece = piece_of(p.id[i]);
+      pack_particle(p, i, records[piece]);
+      derived[piece].insert(derived[piece].end(), {coordination[i], bond_count[i]});
+    }
+
+    std::vector<int> received;
+    const std::vector<char> arrived = bondem::exchanged(records, received);
+    std::vector<std::vector<char>> out;
+    for (const std::vector<double>& values : derived) out.push_back(bytes_of(values));
+    const std::vector<double> arrived_derived = values_of<double>(bondem::exchanged(out, received));
+    out.clear();
+    for (const std::vector<ContactBytes>& some : contacts) out.push_back(bytes_of(some));
+    std::vector<ContactBytes> arrived_contacts =
+        values_of<ContactBytes>(bondem::exchanged(out, received));
+
+    Particles piece = one_particle_;
+    std::vector<char> one;
+    if (one_particle_.size() > 0) pack_particle(one_particle_, 0, one);
+    const std::size_t n = one.empty() ? 0 : arrived.size() / one.size();
+    piece.permute(std::vector<std::uint32_t>(n, 0));
+    for (std::size_t k = 0; k < n; ++k) unpack_particle(arrived.data() + k * one.size(), piece, k);
+    coordination_.resize(n);
+    bond_count_.resize(n);
+    diameter_.resize(n);
+    for (std::size_t k = 0; k < n; ++k) {
+      coordination_[k] = arrived_derived[2 * k];
+      bond_count_[k] = arrived_derived[2 * k + 1];
+      diameter_[k] = 2.0 * piece.radius[k];
+    }
+    std::sort(arrived_contacts.begin(), arrived_contacts.end(),
+              [](const ContactBytes& a, const ContactBytes& b) {
+                return std::pair(a.id_i, a.id_j) < std::pair(b.id_i, b.id_j);
+              });
+    std::vector<ContactRecord> records_of_piece;
+    for (const ContactBytes& c : arrived_contacts) {
+      records_of_piece.push_back({c.id_i, c.id_j, Eigen::Vector3d(c.first),
+                                  Eigen::Vector3d(c.second), c.overlap, c.normal_force,
+                                  c.bonded != 0, Eigen::Vector3d(c.force)});
+    }
+    std::vector<BoundaryLoadRecord> load_records;
+    for (std::size_t b = 0; b < loads.size(); ++b) {
+      load_records.push_back({scene.boundaries[b].name, loads[b].force, loads[b].moment});
+    }
+    writer_.set_boundary_loads(std::move(load_records));
+    const std::vector<std::string>& names = VtkFrames::derived_arrays();
+    together([&] {
+      writer_.write_frame(
+          stepper.time(), piece, records_of_piece, scene.boundaries, scene.domain,
+          {{names[0], &coordination_}, {names[1], &bond_count_}, {names[2], &diameter_}});
+    });
+    together([&] { writer_.publish(); });  // every piece is written
+  }
+
+ private:
+  std::size_t piece_of(std::int64_t id) const {
+    return static_cast<std::size_t>(id % static_cast<std::int64_t>(world_size()));
+  }
+
+  std::int64_t every_;
+  VtkSeriesWriter writer_;
+  Particles one_particle_;
+  std::vector<double> coordination_, bond_count_, diameter_;
 };
 
 /// A scene and a stepper holding the whole run's state: what rank 0 assembles from every
@@ -341,6 +488,8 @@ class DistributedRun {
   }
 
   const RankPart& part() const { return part_; }
+  /// The whole run's boundary loads at this step, on every process.
+  std::vector<BoundaryLoad> loads() const { return boundary_loads_of(load_sums_); }
   /// Rebuilds so far that moved the cuts (redistributions) or kept them (migrations).
   std::int64_t redistributions() const { return redistributions_; }
   std::int64_t migrations() const { return migrations_; }
@@ -451,37 +600,12 @@ class DistributedRun {
     }
   }
 
-  /// Every process sends @p out[r] to process r; returns what it receives, concatenated in rank
-  /// order, with the bytes from each process in @p counts.
-  static std::vector<char> exchanged(const std::vector<std::vector<char>>& out,
-                                     std::vector<int>& counts) {
-    const auto size = static_cast<std::size_t>(world_size());
-    std::vector<int> send_counts(size), send_offsets(size), receive_offsets(size);
-    std::vector<char> sent;
-    for (std::size_t r = 0; r < size; ++r) {
-      send_offsets[r] = static_cast<int>(sent.size());
-      send_counts[r] = static_cast<int>(out[r].size());
-      sent.insert(sent.end(), out[r].begin(), out[r].end());
-    }
-    counts.assign(size, 0);
-    MPI_Alltoall(send_counts.data(), 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
-    int total = 0;
-    for (std::size_t r = 0; r < size; ++r) {
-      receive_offsets[r] = total;
-      total += counts[r];
-    }
-    std::vector<char> received(static_cast<std::size_t>(total));
-    MPI_Alltoallv(sent.data(), send_counts.data(), send_offsets.data(), MPI_BYTE, received.data(),
-                  counts.data(), receive_offsets.data(), MPI_BYTE, MPI_COMM_WORLD);
-    return received;
-  }
-
   /// exchanged() of the pairs' state @p slips[r] for each process r.
   static std::vector<SlipRecord> exchanged(const std::vector<std::vector<SlipRecord>>& slips) {
     std::vector<std::vector<char>> out;
     for (const std::vector<SlipRecord>& some : slips) out.push_back(bytes_of(some));
     std::vector<int> counts;
-    return values_of<SlipRecord>(exchanged(out, counts));
+    return values_of<SlipRecord>(bondem::exchanged(out, counts));
   }
 
   /// After a rebuild whose cuts still balance the work (the most loaded process within
@@ -529,7 +653,7 @@ class DistributedRun {
                                    [&](const SlipRecord& slip) { to.push_back(slip); });
     }
     std::vector<int> counts;
-    const std::vector<char> arrived = exchanged(leaving, counts);
+    const std::vector<char> arrived = bondem::exchanged(leaving, counts);
     const std::vector<SlipRecord> arrived_slips = exchanged(leaving_slips);
     owned_slips.insert(owned_slips.end(), arrived_slips.begin(), arrived_slips.end());
     Particles next = p.selected(kept);
@@ -563,7 +687,7 @@ class DistributedRun {
         if (sent[k] != 0) ghost_slips[ur].push_back(slip);
       }
     }
-    const std::vector<char> ghosts_arrived = exchanged(ghost_records, counts);
+    const std::vector<char> ghosts_arrived = bondem::exchanged(ghost_records, counts);
     const std::vector<SlipRecord> ghost_slips_arrived = exchanged(ghost_slips);
     const Particles ghosts = particles_from(ghosts_arrived);
     for (std::size_t k = 0; k < ghosts.size(); ++k) append_particle(ghosts, k, next);
@@ -654,6 +778,7 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
   RunTotals first_totals;     // of step 0 (a fresh run's first history row)
   std::vector<double> costs;  // bisection weights: a restart has no list yet, and weighs 1 each
   std::string history_text;
+  const bool vtk = description.vtk_interval > 0.0;
   together([&] {
     if (const std::string limit = distributed_run_limits(description); !limit.empty()) {
       throw CaseError(limit);
@@ -667,22 +792,42 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
       Checkpoint restored = read_fitting_checkpoint(description, options, plan, *scene);
       plan.first_step = restored.stepper.step;
       scene->particles = std::move(restored.particles);
+      // As in run_case: displacements from here when the interrupted run did not track them.
+      if (vtk && !scene->particles.displacement_tracked) scene->particles.track_displacement();
       history_text = history_without_end_row(restored.history, restored.stepper.step,
                                              restored.stepper.time, plan.history_every);
       state = std::move(restored.stepper);
       costs.assign(scene->particles.size(), 1.0);
-    } else {
-      // The initial forces of the whole scene, as the run in one process evaluates them.
-      Stepper whole(*scene);
-      state = whole.save_state();
-      first_totals = run_totals(*scene, whole);
-      costs = stepping_costs(whole);
     }
     check_output_fields(description, *scene, history_text);
   });
   together([&] {
     if (root) prepare_output_directory(description, options, plan);
   });
+  std::optional<PieceFrames> frames;  // first: a restart trims the series before the history
+  if (vtk) {
+    together([&] {
+      frames.emplace(plan.directory, plan.vtk_every, description.vtk_fields, *scene);
+      if (plan.restarting) frames->resume(*scene, state.step, description.time_step);
+    });
+  }
+  if (!plan.restarting) {
+    // The initial forces of the whole scene, as the run in one process evaluates them.
+    std::optional<Stepper> whole;
+    together([&] {
+      whole.emplace(*scene);
+      state = whole->save_state();
+      first_totals = run_totals(*scene, *whole);
+      costs = stepping_costs(*whole);
+    });
+    // Every process holds the whole run here: each writes its piece of frame 0 alone.
+    const auto size = static_cast<std::int64_t>(world_size());
+    const std::int64_t rank = world_rank();
+    if (frames) {
+      frames->write(
+          *scene, *whole, [&](std::int64_t id) { return id % size == rank; }, first_totals.loads);
+    }
+  }
 
   std::optional<DistributedRun> run_part;
   {
@@ -743,6 +888,10 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
       ++step;
       const bool at_end = step == plan.steps;
       if (step % plan.history_every == 0 || at_end) add_row(step, run.totals());
+      const auto owned = [&](std::int64_t id) { return run.part().owns(id); };
+      if (frames && (step % frames->every() == 0 || at_end)) {
+        frames->write(*run.part().scene, *run.part().stepper, owned, run.loads());
+      }
       if (step % plan.checkpoint_every == 0 && !at_end) {
         at_whole_run([&](const Simulation& s) { checkpoint.after_step(s); });
       }
@@ -751,6 +900,10 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
         progress.after_step(rank_view);
       }
       if (stop && !at_end) {
+        // As VtkFrames: a frame of the state reached, off the grid (a restart drops it).
+        if (frames && step % frames->every() != 0) {
+          frames->write(*run.part().scene, *run.part().stepper, owned, run.loads());
+        }
         at_whole_run([&](const Simulation& s) {
           const Interruption why{StopReason::kStopRequested, nullptr};
           checkpoint.interrupted(s, why);

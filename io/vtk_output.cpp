@@ -5,6 +5,7 @@
 #include <vtkCellData.h>
 #include <vtkCommand.h>
 #include <vtkDataArray.h>
+#include <vtkDataSetAttributes.h>
 #include <vtkDoubleArray.h>
 #include <vtkErrorCode.h>
 #include <vtkExecutive.h>
@@ -19,12 +20,14 @@
 #include <vtkTypeInt32Array.h>
 #include <vtkTypeInt64Array.h>
 #include <vtkTypeUInt8Array.h>
+#include <vtkXMLPPolyDataReader.h>
 #include <vtkXMLPolyDataReader.h>
 #include <vtkXMLPolyDataWriter.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -129,6 +132,56 @@ std::string frame_file(const char* series, std::size_t index) {
   std::array<char, 64> buffer{};
   std::snprintf(buffer.data(), buffer.size(), "%s_%06zu.vtp", series, index);
   return buffer.data();
+}
+
+/// "<series>_NNNNNN_<piece>.vtp": piece @p piece of frame @p index.
+std::string piece_file(const char* series, std::size_t index, int piece) {
+  std::array<char, 80> buffer{};
+  std::snprintf(buffer.data(), buffer.size(), "%s_%06zu_%d.vtp", series, index, piece);
+  return buffer.data();
+}
+
+/// "<series>_NNNNNN.pvtp": the summary of frame @p index's pieces.
+std::string summary_file(const char* series, std::size_t index) {
+  std::array<char, 64> buffer{};
+  std::snprintf(buffer.data(), buffer.size(), "%s_%06zu.pvtp", series, index);
+  return buffer.data();
+}
+
+/// VTK XML name of the value type of @p array ("Float64", "Int32", "UInt8", ...).
+std::string xml_type_name(vtkDataArray* array);
+
+/// The PDataArray elements that declare the arrays of @p attributes.
+void declare_arrays(std::ostream& out, vtkDataSetAttributes* attributes, const char* indent) {
+  for (int k = 0; k < attributes->GetNumberOfArrays(); ++k) {
+    vtkDataArray* array = attributes->GetArray(k);
+    out << indent << "<PDataArray type=\"" << xml_type_name(array) << "\" Name=\""
+        << array->GetName() << "\" NumberOfComponents=\"" << array->GetNumberOfComponents()
+        << "\"/>\n";
+  }
+}
+
+/// Writes, atomically, the .pvtp summary @p path of the pieces @p pieces (file names relative to
+/// it), whose arrays are those of @p piece (every piece has the same arrays): what a parallel
+/// reader needs to open them as one data set. The summary carries no data of its own, so it is
+/// written as text here rather than by a VTK writer that would also write a piece.
+void write_summary(const std::string& path, vtkPolyData* piece,
+                   const std::vector<std::string>& pieces) {
+  AtomicFile file(path);
+  std::ostream& out = file.stream();
+  out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"PPolyData\" version=\"1.0\" byte_order=\""
+      << (std::endian::native == std::endian::little ? "LittleEndian" : "BigEndian")
+      << "\" header_type=\"UInt64\">\n  <PPolyData GhostLevel=\"0\">\n";
+  out << "    <PPointData>\n";
+  declare_arrays(out, piece->GetPointData(), "      ");
+  out << "    </PPointData>\n    <PCellData>\n";
+  declare_arrays(out, piece->GetCellData(), "      ");
+  out << "    </PCellData>\n    <PPoints>\n      <PDataArray type=\""
+      << xml_type_name(piece->GetPoints()->GetData())
+      << "\" Name=\"Points\" NumberOfComponents=\"3\"/>\n    </PPoints>\n";
+  for (const std::string& source : pieces) out << "    <Piece Source=\"" << source << "\"/>\n";
+  out << "  </PPolyData>\n</VTKFile>\n";
+  file.commit();
 }
 
 vtkIdType vtk_size(std::size_t n) {
@@ -701,14 +754,33 @@ void VtkSeriesWriter::write_frame(double time, const Particles& particles,
     points->GetFieldData()->AddArray(vector_array("boundary_force", f[0], f[1], f[2]));
     points->GetFieldData()->AddArray(vector_array("boundary_moment", m[0], m[1], m[2]));
   }
-  write_vtp(points, (dir / frame_file("particles", frame)).string());
+  // A frame's own file, or this writer's piece of it and, from piece 0, the summary of all.
+  const auto write_part = [&](vtkPolyData* data, const char* series) {
+    if (pieces_ == 1) {
+      write_vtp(data, (dir / frame_file(series, frame)).string());
+      return;
+    }
+    write_vtp(data, (dir / piece_file(series, frame, piece_)).string());
+    if (piece_ != 0) return;
+    std::vector<std::string> sources;
+    for (int piece = 0; piece < pieces_; ++piece)
+      sources.push_back(piece_file(series, frame, piece));
+    write_summary((dir / summary_file(series, frame)).string(), data, sources);
+  };
+  write_part(points, "particles");
   const vtkSmartPointer<vtkPolyData> lines = contact_data(contacts);
   add_time_value(lines, time);
-  write_vtp(lines, (dir / frame_file("contacts", frame)).string());
+  write_part(lines, "contacts");
   if (bonds_) {
     const vtkSmartPointer<vtkPolyData> bonds = contact_data(contacts, true);
     add_time_value(bonds, time);
-    write_vtp(bonds, (dir / frame_file("bonds", frame)).string());
+    write_part(bonds, "bonds");
+  }
+  if (piece_ != 0) {
+    // The geometry and the collections are piece 0's.
+    times_.push_back(time);
+    in_pieces_.push_back(true);
+    return;
   }
   if (!bodies.empty()) {
     const vtkSmartPointer<vtkPolyData> tools = tool_data(bodies, domain);
@@ -731,16 +803,36 @@ void VtkSeriesWriter::write_frame(double time, const Particles& particles,
   }
 
   times_.push_back(time);
+  in_pieces_.push_back(pieces_ > 1);
   wall_files_.push_back(wall_file);
+  if (pieces_ > 1) return;  // listed by publish(), once every piece is written
   try {
     write_collections();
   } catch (...) {
     // Not listed, not counted: the next frame reuses this index and rewrites every collection.
     times_.pop_back();
+    in_pieces_.pop_back();
     wall_files_.pop_back();
     last_walls_ = std::move(walls_before);
     throw;
   }
+}
+
+void VtkSeriesWriter::set_pieces(int piece, int pieces) {
+  if (pieces < 1 || piece < 0 || piece >= pieces) {
+    throw std::invalid_argument("VTK output: piece " + std::to_string(piece) + " of " +
+                                std::to_string(pieces));
+  }
+  piece_ = piece;
+  pieces_ = pieces;
+}
+
+void VtkSeriesWriter::publish() const {
+  if (pieces_ > 1 && piece_ == 0) write_collections();
+}
+
+std::string VtkSeriesWriter::listed_file(const char* series, std::size_t frame) const {
+  return in_pieces_[frame] ? summary_file(series, frame) : frame_file(series, frame);
 }
 
 void VtkSeriesWriter::resume(const std::function<bool(double)>& keep_frame,
@@ -771,10 +863,19 @@ void VtkSeriesWriter::resume(const std::function<bool(double)>& keep_frame,
       wall_files_.push_back(match[2].str());
     }
   }
+  // A kept frame is in pieces when its summary is there (frame files are named by index).
+  std::error_code error;
+  in_pieces_.clear();
+  for (std::size_t frame = 0; frame < times_.size(); ++frame) {
+    in_pieces_.push_back(fs::exists(dir / summary_file("particles", frame), error));
+  }
+  // The others' pieces and the collections are piece 0's to trim: every writer only learns
+  // which frames stay (piece 0 rewrites walls.pvd whole, so a read sees the same frames).
+  if (piece_ != 0) return;
   // Frames are numbered in order and a wall file is named after the frame that first drew it, so
   // every file numbered at or after the first dropped frame belongs to dropped frames only.
-  static const std::regex frame_name("(particles|contacts|bonds|walls|tools)_([0-9]{6,12})\\.vtp");
-  std::error_code error;
+  static const std::regex frame_name(
+      "(particles|contacts|bonds|walls|tools)_([0-9]{6,12})(_[0-9]+\\.vtp|\\.vtp|\\.pvtp)");
   std::vector<fs::path> dropped;
   for (const fs::directory_entry& file : fs::directory_iterator(dir, error)) {
     std::smatch match;
@@ -801,8 +902,8 @@ void VtkSeriesWriter::write_collections() const {
   const fs::path dir(directory_);
   std::vector<std::string> particle_files, contact_files;
   for (std::size_t frame = 0; frame < times_.size(); ++frame) {
-    particle_files.push_back(frame_file("particles", frame));
-    contact_files.push_back(frame_file("contacts", frame));
+    particle_files.push_back(listed_file("particles", frame));
+    contact_files.push_back(listed_file("contacts", frame));
   }
   write_collection((dir / "particles.pvd").string(), times_, particle_files);
   write_collection((dir / "contacts.pvd").string(), times_, contact_files);
@@ -810,7 +911,7 @@ void VtkSeriesWriter::write_collections() const {
   if (bonds_) {
     std::vector<std::string> bond_files;
     for (std::size_t frame = 0; frame < times_.size(); ++frame) {
-      bond_files.push_back(frame_file("bonds", frame));
+      bond_files.push_back(listed_file("bonds", frame));
     }
     write_collection((dir / "bonds.pvd").string(), times_, bond_files);
   }
@@ -833,7 +934,10 @@ const VtpArray* VtpContents::cell_array(const std::string& name) const {
 
 VtpContents read_vtp(const std::string& path) {
   vtkNew<ErrorCollector> errors;
-  vtkNew<vtkXMLPolyDataReader> reader;
+  const bool summary = fs::path(path).extension() == ".pvtp";
+  const vtkSmartPointer<vtkXMLReader> reader =
+      summary ? vtkSmartPointer<vtkXMLReader>(vtkSmartPointer<vtkXMLPPolyDataReader>::New())
+              : vtkSmartPointer<vtkXMLReader>(vtkSmartPointer<vtkXMLPolyDataReader>::New());
   reader->AddObserver(vtkCommand::ErrorEvent, errors);
   reader->GetExecutive()->AddObserver(vtkCommand::ErrorEvent, errors);
   if (!fs::is_regular_file(path) || reader->CanReadFile(path.c_str()) == 0) {
@@ -845,7 +949,7 @@ VtpContents read_vtp(const std::string& path) {
     throw std::runtime_error(path + ": cannot read VTK file" +
                              (errors->message.empty() ? "" : ": " + errors->message));
   }
-  vtkPolyData* data = reader->GetOutput();
+  vtkPolyData* data = vtkPolyData::SafeDownCast(reader->GetOutputDataObject(0));
   VtpContents contents;
   for (vtkIdType i = 0; i < data->GetNumberOfPoints(); ++i) {
     Eigen::Vector3d point;

@@ -13,6 +13,10 @@
 /// ParaView's PVD reader shows, for a requested time, the first entry at or after it, so a sparse
 /// list would show a moved wall before it moved. Static walls therefore cost one file.
 ///
+/// A run of several processes writes the particles, contacts and bonds of a frame as one piece
+/// per process, `particles_NNNNNN_P.vtp` (P = 0, 1, ...), with a summary `particles_NNNNNN.pvtp`
+/// that lists them; the .pvd collections then name the .pvtp files (set_pieces()).
+///
 /// VTK types stay out of this header: VTK is a private dependency of bondem_core.
 
 #include <Eigen/Core>
@@ -89,6 +93,18 @@ class VtkSeriesWriter {
   /// Names of the materials by index: field data "material_names" of every particle file.
   void set_material_names(std::vector<std::string> names) { material_names_ = std::move(names); }
 
+  /// Write piece @p piece of @p pieces of every frame (a run of several processes, each with a
+  /// writer on the same directory): particles, contacts and bonds go to
+  /// `<series>_NNNNNN_<piece>.vtp`; piece 0's writer also writes the `.pvtp` summaries and the
+  /// walls, tools and domain, and lists a frame in the collections only when publish() is called,
+  /// after every piece of the frame is written. One piece (the default): whole frames, each
+  /// listed as it is written.
+  void set_pieces(int piece, int pieces);
+
+  /// Piece 0 of a frame in pieces: list the frames written so far in the .pvd collections, once
+  /// every process has written its piece of the last one. Otherwise nothing.
+  void publish() const;
+
   /// Also write the bonded contacts as a series of their own, bonds_NNNNNN.vtp.
   void set_bonds_series(bool on) { bonds_ = on; }
 
@@ -163,10 +179,16 @@ class VtkSeriesWriter {
   };
 
   void write_collections() const;
+  /// The file of frame @p frame of @p series that the collections list: the frame's .vtp, or for
+  /// a frame in pieces its .pvtp summary.
+  std::string listed_file(const char* series, std::size_t frame) const;
 
   std::string directory_;
   double wall_extent_ = 0.0;
-  std::vector<double> times_;                ///< time of every frame written
+  std::vector<double> times_;  ///< time of every frame written
+  /// Of every frame written, whether it is in pieces (a restart on another number of processes
+  /// continues a series of whole frames in pieces, or the other way round).
+  std::vector<bool> in_pieces_;
   std::vector<std::string> wall_files_;      ///< wall file of every frame written
   std::optional<WallGeometry> last_walls_;   ///< geometry of the newest wall file
   bool tools_ = false;                       ///< moving tools were written: keep a tools.pvd series
@@ -174,6 +196,7 @@ class VtkSeriesWriter {
   std::vector<std::string> material_names_;  ///< by material index
   std::vector<BoundaryLoadRecord> loads_;    ///< of the next frame
   bool bonds_ = false;                       ///< write the bonds series
+  int piece_ = 0, pieces_ = 1;               ///< this writer's piece of each frame, of how many
 };
 
 /// One data array read back from a .vtp file.
@@ -200,7 +223,8 @@ struct VtpContents {
   const VtpArray* cell_array(const std::string& name) const;
 };
 
-/// Read a .vtp file with vtkXMLPolyDataReader. Throws std::runtime_error naming the file.
+/// Read a .vtp file with vtkXMLPolyDataReader, or a .pvtp summary with vtkXMLPPolyDataReader
+/// (its pieces appended in order). Throws std::runtime_error naming the file.
 VtpContents read_vtp(const std::string& path);
 
 }  // namespace bondem

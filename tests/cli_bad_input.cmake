@@ -53,7 +53,7 @@ expect_bad_input("'bond.criterion': needs a thermal: block" run ${CASES}/paper_5
                  --set bond.criterion=temperature --output ${WORK}/run_criterion)
 expect_bad_input("--threads must be at least 1" run ${CASES}/powder_bed_packing_ci.yaml --quiet
                  --threads 0 --output ${WORK}/run_threads)
-# Under mpirun, a case with what a distributed run cannot do yet (here VTK frames) is refused
+# Under mpirun, a case with what a distributed run cannot do yet (here state snapshots) is refused
 # before anything is written: exit 2, the reason printed once (by rank 0), not once a process.
 find_program(MPIRUN mpirun)
 if(MPIRUN)
@@ -62,12 +62,13 @@ if(MPIRUN)
   set(ENV{OMPI_ALLOW_RUN_AS_ROOT_CONFIRM} 1)
   execute_process(COMMAND ${MPIRUN} --oversubscribe --bind-to none -np 2 ${BONDEM} run
                           ${CASES}/powder_bed_packing_ci.yaml --quiet --output ${WORK}/run_mpirun
+                          --set output.state_interval=0.001
                   RESULT_VARIABLE status ERROR_VARIABLE err OUTPUT_VARIABLE out)
   if(NOT status EQUAL 2)
-    message(FATAL_ERROR "mpirun -np 2 bondem run with VTK frames: expected exit 2, got ${status}: "
+    message(FATAL_ERROR "mpirun -np 2 bondem run with state snapshots: expected exit 2, got ${status}: "
                         "${err}")
   endif()
-  set(reason "'output.vtk_interval' (VTK frames) is not supported under mpirun yet")
+  set(reason "'output.state_interval' is not supported under mpirun yet")
   string(REGEX MATCHALL "is not supported under mpirun" reasons "${err}")
   list(LENGTH reasons times)
   if(NOT times EQUAL 1)

@@ -3,8 +3,10 @@
 # Each case is run into WORK/<case>_<processes>; every output is compared with the reference's:
 #   pour       tests/cases/storage_order.yaml: 1 100 frictional spheres thrown at a floor across
 #              periodic x and y, pushed by a moving blade, every contact bonding; a checkpoint
-#              midway. Then the same run stopped midway on PROCESSES processes and continued
-#              from its checkpoint on another number of processes.
+#              midway, VTK frames every 0.6 ms (on PROCESSES processes, one piece a process; they
+#              must show what the reference's whole frames show: FRAMES_MATCH). Then the same run
+#              stopped midway on PROCESSES processes and continued from its checkpoint on another
+#              number of processes, its frames continued in as many pieces.
 #   spreading  cases/powder_spreading_ci.yaml without its VTK frames, shortened to 3 ms with the
 #              blade moving from 0.5 ms at 0.4 m/s, through the falling heap (layer.csv included).
 #   thermal    tests/cases/thermal_bonding.yaml: heat flow, temperature-criterion bonds, the
@@ -20,7 +22,7 @@ file(WRITE ${WORK}/spreading.yaml "${spreading}")
 
 set(pour_case ${TEST_CASES}/storage_order.yaml)
 set(pour_options --set time.end=0.0024 --set output.checkpoint_interval=0.0012
-                 --set output.history_interval=0.0002)
+                 --set output.history_interval=0.0002 --set output.vtk_interval=0.0006)
 set(spreading_case ${WORK}/spreading.yaml)
 set(spreading_options --set walls.2.motion.1.time=0.0005 --set walls.2.motion.1.velocity.0=0.4
                       --set time.end=0.003 --set output.history_interval=0.0002)
@@ -77,15 +79,27 @@ foreach(name pour spreading thermal migration)
   endif()
 endforeach()
 
+# The VTK series of `directory`, whole or in pieces, frame by frame as the reference's pour.
+function(expect_reference_frames directory what)
+  execute_process(COMMAND ${FRAMES_MATCH} ${WORK}/../cli_mpi_run_0_work/pour_0 ${directory}
+                  RESULT_VARIABLE differ ERROR_VARIABLE err)
+  if(differ)
+    message(FATAL_ERROR "${what}: VTK frames differ from the run in one process: ${err}")
+  endif()
+endfunction()
+
 if(NOT PROCESSES EQUAL 0)
   # Stopped midway on PROCESSES processes, continued from the checkpoint on another number.
   math(EXPR next "${PROCESSES} % 4 + 1")
   set(directory ${WORK}/pour_restarted)
   file(REMOVE_RECURSE ${directory})
-  set(halfway --set output.checkpoint_interval=0.0012 --set output.history_interval=0.0002)
+  expect_reference_frames(${WORK}/pour_${PROCESSES} "pour on ${PROCESSES} processes")
+  set(halfway --set output.checkpoint_interval=0.0012 --set output.history_interval=0.0002
+              --set output.vtk_interval=0.0006)
   run_on(${PROCESSES} ${pour_case} ${halfway} --set time.end=0.0012 --output ${directory})
   run_on(${next} ${pour_case} ${pour_options} --output ${directory}
          --restart ${directory}/checkpoint.bin)
   expect_reference_bytes(pour ${directory}
                          "pour on ${PROCESSES} processes continued on ${next}")
+  expect_reference_frames(${directory} "pour on ${PROCESSES} processes continued on ${next}")
 endif()

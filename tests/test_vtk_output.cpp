@@ -265,6 +265,63 @@ TEST_F(VtkOutput, ThreeFramesReadBackExactly) {
   EXPECT_TRUE(temporaries_under(root_).empty());
 }
 
+// Two writers on one directory, each writing its piece of every frame, as the processes of a
+// distributed run do: VTK's parallel reader opens the .pvtp as the whole set; a frame is listed
+// only once published; a restart on one process continues the series with whole frames.
+TEST_F(VtkOutput, PiecesReadBackAsOneDataSetThroughTheSummary) {
+  const Particles p = make_particles();
+  std::vector<std::uint32_t> even, odd;
+  for (std::uint32_t i = 0; i < p.size(); ++i) (i % 2 == 0 ? even : odd).push_back(i);
+  const Particles halves[2] = {p.selected(even), p.selected(odd)};
+  const std::vector<ContactRecord> contacts = make_contacts(p, 0);
+  const Domain domain = make_domain();
+  const std::vector<Boundary> walls = make_walls();
+  VtkSeriesWriter first(root_.string()), second(root_.string());
+  first.set_pieces(0, 2);
+  second.set_pieces(1, 2);
+  for (int frame = 0; frame < 2; ++frame) {
+    const double time = 1e-3 * frame;
+    first.write_frame(time, halves[0], {contacts[0]}, walls, domain);
+    second.write_frame(time, halves[1], {contacts[1]}, walls, domain);
+    // Written, not listed: the .pvd waits for publish().
+    if (frame == 0) {
+      EXPECT_FALSE(fs::exists(root_ / "particles.pvd"));
+    } else {
+      EXPECT_EQ(pvd_entries(root_ / "particles.pvd").size(), 1u);
+    }
+    first.publish();
+    second.publish();  // not piece 0's: does nothing
+  }
+  const auto listed = pvd_entries(root_ / "particles.pvd");
+  ASSERT_EQ(listed.size(), 2u);
+  EXPECT_EQ(listed[1].second, "particles_000001.pvtp");
+  EXPECT_TRUE(fs::exists(root_ / "particles_000001_1.vtp"));
+  EXPECT_FALSE(fs::exists(root_ / "particles_000001.vtp"));
+
+  const VtpContents whole = read_vtp((root_ / "particles_000001.pvtp").string());
+  ASSERT_EQ(whole.points.size(), p.size());
+  const VtpArray* id = whole.point_array("id");
+  ASSERT_NE(id, nullptr);
+  // Each piece by id, piece after piece: every particle once, at its own position.
+  for (std::size_t k = 0; k < p.size(); ++k) {
+    const std::size_t i = k < even.size() ? even[k] : odd[k - even.size()];
+    EXPECT_EQ(id->values[k], static_cast<double>(p.id[i]));
+    EXPECT_EQ(whole.points[k], Eigen::Vector3d(p.x[i], p.y[i], p.z[i]));
+  }
+  const VtpContents lines = read_vtp((root_ / "contacts_000001.pvtp").string());
+  ASSERT_EQ(lines.lines, 2u);
+  EXPECT_EQ(lines.cell_array("id_j")->values[1], static_cast<double>(contacts[1].id_j));
+
+  // Continued on one process: the pieces stay listed, the next frame is whole.
+  VtkSeriesWriter alone(root_.string());
+  alone.resume([](double) { return true; }, walls, domain);
+  alone.write_frame(2e-3, p, contacts, walls, domain);
+  const auto continued = pvd_entries(root_ / "particles.pvd");
+  ASSERT_EQ(continued.size(), 3u);
+  EXPECT_EQ(continued[1].second, "particles_000001.pvtp");
+  EXPECT_EQ(continued[2].second, "particles_000002.vtp");
+}
+
 TEST_F(VtkOutput, FilesAreBinaryAppendedAndZlibCompressed) {
   VtkSeriesWriter writer(root_.string());
   Particles p = make_particles();
