@@ -49,11 +49,6 @@ std::string distributed_run_limits(const Case& description) {
   if (description.laser) return prefix + "'laser'" + later;
   if (description.state_interval > 0.0) return prefix + "'output.state_interval'" + later;
   if (description.layers) return prefix + "'analysis.layers'" + later;
-  for (const Boundary& wall : description.boundaries) {
-    if (std::holds_alternative<MeshShape>(wall.shape)) {
-      return prefix + "'walls': mesh wall '" + wall.name + "'" + later;
-    }
-  }
   return "";
 }
 

@@ -13,6 +13,10 @@
 #              substrate's load.
 #   migration  tests/cases/migration_stress.yaml: crossing streams in a box periodic along x, y
 #              and z; every sphere crosses the cuts and the periodic faces.
+#   drum       cases/rotating_drum_ci.yaml, shortened to 40 ms: spheres falling into a rotating
+#              drum that is a triangle mesh (every process holds the whole mesh; 159 spheres touch
+#              it at the end, their contact history travelling with them); VTK frames at 0 and
+#              40 ms, compared as the pour's.
 include(${CMAKE_CURRENT_LIST_DIR}/cli_common.cmake)
 
 file(MAKE_DIRECTORY ${WORK})
@@ -30,6 +34,8 @@ set(thermal_case ${TEST_CASES}/thermal_bonding.yaml)
 set(thermal_options)
 set(migration_case ${TEST_CASES}/migration_stress.yaml)
 set(migration_options)
+set(drum_case ${CASES}/rotating_drum_ci.yaml)
+set(drum_options --set time.end=0.04 --set output.checkpoint_interval=0.02)
 set(outputs history.csv final_state.csv checkpoint.bin clusters.csv layer.csv)
 
 # Open MPI refuses root without these (CI runs as root).
@@ -66,7 +72,7 @@ function(expect_reference_bytes name directory what)
   endforeach()
 endfunction()
 
-foreach(name pour spreading thermal migration)
+foreach(name pour spreading thermal migration drum)
   set(directory ${WORK}/${name}_${PROCESSES})
   file(REMOVE_RECURSE ${directory})
   run_on(${PROCESSES} ${${name}_case} ${${name}_options} --output ${directory})
@@ -79,9 +85,9 @@ foreach(name pour spreading thermal migration)
   endif()
 endforeach()
 
-# The VTK series of `directory`, whole or in pieces, frame by frame as the reference's pour.
-function(expect_reference_frames directory what)
-  execute_process(COMMAND ${FRAMES_MATCH} ${WORK}/../cli_mpi_run_0_work/pour_0 ${directory}
+# The VTK series of `directory`, whole or in pieces, frame by frame as the reference run's.
+function(expect_reference_frames name directory what)
+  execute_process(COMMAND ${FRAMES_MATCH} ${WORK}/../cli_mpi_run_0_work/${name}_0 ${directory}
                   RESULT_VARIABLE differ ERROR_VARIABLE err)
   if(differ)
     message(FATAL_ERROR "${what}: VTK frames differ from the run in one process: ${err}")
@@ -89,11 +95,14 @@ function(expect_reference_frames directory what)
 endfunction()
 
 if(NOT PROCESSES EQUAL 0)
+  foreach(name pour drum)  # the series with frames: the drum's show the mesh as a tool series
+    expect_reference_frames(${name} ${WORK}/${name}_${PROCESSES} "${name} on ${PROCESSES} processes")
+  endforeach()
+
   # Stopped midway on PROCESSES processes, continued from the checkpoint on another number.
   math(EXPR next "${PROCESSES} % 4 + 1")
   set(directory ${WORK}/pour_restarted)
   file(REMOVE_RECURSE ${directory})
-  expect_reference_frames(${WORK}/pour_${PROCESSES} "pour on ${PROCESSES} processes")
   set(halfway --set output.checkpoint_interval=0.0012 --set output.history_interval=0.0002
               --set output.vtk_interval=0.0006)
   run_on(${PROCESSES} ${pour_case} ${halfway} --set time.end=0.0012 --output ${directory})
@@ -101,5 +110,5 @@ if(NOT PROCESSES EQUAL 0)
          --restart ${directory}/checkpoint.bin)
   expect_reference_bytes(pour ${directory}
                          "pour on ${PROCESSES} processes continued on ${next}")
-  expect_reference_frames(${directory} "pour on ${PROCESSES} processes continued on ${next}")
+  expect_reference_frames(pour ${directory} "pour on ${PROCESSES} processes continued on ${next}")
 endif()
