@@ -47,8 +47,6 @@ std::string distributed_run_limits(const Case& description) {
     return prefix + "'domain.remove_outside'" + later;
   }
   if (description.laser) return prefix + "'laser'" + later;
-  if (description.state_interval > 0.0) return prefix + "'output.state_interval'" + later;
-  if (description.layers) return prefix + "'analysis.layers'" + later;
   return "";
 }
 
@@ -822,6 +820,13 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
       frames->write(
           *scene, *whole, [&](std::int64_t id) { return id % size == rank; }, first_totals.loads);
     }
+    if (plan.state_every > 0) {
+      together([&] {
+        if (root)
+          StateFiles(plan.directory, plan.state_every)
+              .start(Simulation(*scene, *whole, plan.steps));
+      });
+    }
   }
 
   std::optional<DistributedRun> run_part;
@@ -865,6 +870,20 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
       }
     });
   };
+  // State snapshots and layers are written by rank 0 from the whole run assembled at their steps.
+  std::optional<StateFiles> states;
+  if (root && plan.state_every > 0) states.emplace(plan.directory, plan.state_every);
+  std::optional<LayerFiles> layers;
+  std::size_t layers_measured = 0;  // on every process: when to assemble for the next layer
+  if (description.layers) {
+    const std::int64_t resumed_at = plan.restarting ? plan.first_step : 0;
+    layers_measured = layers_through(*description.layers, description.time_step, resumed_at);
+    together([&] {
+      if (!root) return;
+      layers.emplace(plan.directory, *description.layers, description.time_step);
+      if (plan.restarting) layers->resume(resumed_at);
+    });
+  }
   const auto at_whole_run = [&](auto&& use) {
     WholeRun whole = run.assemble();
     together([&] {
@@ -887,8 +906,19 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
       if (frames && (step % frames->every() == 0 || at_end)) {
         frames->write(*run.part().scene, *run.part().stepper, owned, run.loads());
       }
-      if (step % plan.checkpoint_every == 0 && !at_end) {
-        at_whole_run([&](const Simulation& s) { checkpoint.after_step(s); });
+      const bool state_due = plan.state_every > 0 && step % plan.state_every == 0;
+      const std::size_t layers_due =
+          description.layers ? layers_through(*description.layers, description.time_step, step) : 0;
+      const bool layer_due = layers_due > layers_measured;
+      const bool checkpoint_due = step % plan.checkpoint_every == 0 && !at_end;
+      if (state_due || layer_due || checkpoint_due) {
+        // In the order of the observers of a run in one process.
+        at_whole_run([&](const Simulation& s) {
+          if (state_due) states->after_step(s);
+          if (layer_due) layers->after_step(s);
+          if (checkpoint_due) checkpoint.after_step(s);
+        });
+        if (layer_due) layers_measured = layers_due;
       }
       if (root) {
         Simulation rank_view(*run.part().scene, *run.part().stepper, plan.steps);

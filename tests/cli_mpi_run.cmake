@@ -8,7 +8,8 @@
 #              stopped midway on PROCESSES processes and continued from its checkpoint on another
 #              number of processes, its frames continued in as many pieces.
 #   spreading  cases/powder_spreading_ci.yaml without its VTK frames, shortened to 3 ms with the
-#              blade moving from 0.5 ms at 0.4 m/s, through the falling heap (layer.csv included).
+#              blade moving from 0.5 ms at 0.4 m/s, through the falling heap (layer.csv included),
+#              with state snapshots every ms and a layer series at 1 and 2 ms.
 #   thermal    tests/cases/thermal_bonding.yaml: heat flow, temperature-criterion bonds, the
 #              substrate's load.
 #   migration  tests/cases/migration_stress.yaml: crossing streams in a box periodic along x, y
@@ -22,6 +23,10 @@ include(${CMAKE_CURRENT_LIST_DIR}/cli_common.cmake)
 file(MAKE_DIRECTORY ${WORK})
 file(READ ${CASES}/powder_spreading_ci.yaml spreading)
 string(REGEX REPLACE "\n *vtk_interval:[^\n]*" "" spreading "${spreading}")
+# A layer series besides the end's layer: measured at 1 and 2 ms, through the falling heap.
+string(REPLACE "analysis:\n" "analysis:\n  layers: {times: [0.001, 0.002], x_min: 0.0016, \
+x_max: 0.0024, y_min: 0.0, y_max: 0.0005, substrate_z: 0.0, layer_height: 0.00025, bins: 4}\n"
+       spreading "${spreading}")
 file(WRITE ${WORK}/spreading.yaml "${spreading}")
 
 set(pour_case ${TEST_CASES}/storage_order.yaml)
@@ -29,14 +34,16 @@ set(pour_options --set time.end=0.0024 --set output.checkpoint_interval=0.0012
                  --set output.history_interval=0.0002 --set output.vtk_interval=0.0006)
 set(spreading_case ${WORK}/spreading.yaml)
 set(spreading_options --set walls.2.motion.1.time=0.0005 --set walls.2.motion.1.velocity.0=0.4
-                      --set time.end=0.003 --set output.history_interval=0.0002)
+                      --set time.end=0.003 --set output.history_interval=0.0002
+                      --set output.state_interval=0.001)
 set(thermal_case ${TEST_CASES}/thermal_bonding.yaml)
 set(thermal_options)
 set(migration_case ${TEST_CASES}/migration_stress.yaml)
 set(migration_options)
 set(drum_case ${CASES}/rotating_drum_ci.yaml)
 set(drum_options --set time.end=0.04 --set output.checkpoint_interval=0.02)
-set(outputs history.csv final_state.csv checkpoint.bin clusters.csv layer.csv)
+set(outputs history.csv final_state.csv checkpoint.bin clusters.csv layer.csv state_000000.csv
+            state_000001.csv state_000003.csv layers.csv layer_001.csv layer_002.csv)
 
 # Open MPI refuses root without these (CI runs as root).
 set(ENV{OMPI_ALLOW_RUN_AS_ROOT} 1)
@@ -79,6 +86,10 @@ foreach(name pour spreading thermal migration drum)
   if(PROCESSES EQUAL 0)
     if(NOT EXISTS ${directory}/checkpoint.bin)
       message(FATAL_ERROR "${name}: the reference run wrote no checkpoint")
+    endif()
+    if(name STREQUAL "spreading" AND NOT (EXISTS ${directory}/state_000003.csv AND
+                                          EXISTS ${directory}/layer_002.csv))
+      message(FATAL_ERROR "spreading: the reference run wrote no state snapshots or layers")
     endif()
   else()
     expect_reference_bytes(${name} ${directory} "${name} on ${PROCESSES} processes")
