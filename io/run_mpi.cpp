@@ -16,6 +16,7 @@
 #include <ostream>
 #include <span>
 #include <sstream>
+#include <type_traits>
 #include <utility>
 #include <variant>
 #include <vector>
@@ -852,6 +853,22 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
   if (plan.restarting) history.continue_from(std::move(history_text));
   CheckpointFile checkpoint(plan.checkpoint_path, plan.fingerprint, plan.checkpoint_every, history);
   Progress progress(log, options.quiet || !root);
+  // Each process keeps its own particles' state at every history row; on a blow-up rank 0
+  // writes them all, by id, as the run in one process does.
+  const std::string last_good_path = (plan.directory / "last_good_state.csv").string();
+  std::optional<LastGoodFile> last_good;
+  const auto keep_last_good = [&] {
+    const Particles& p = run.part().scene->particles;
+    std::vector<std::uint32_t> owned;
+    for (std::uint32_t k = 0; k < p.size(); ++k) {
+      if (run.part().owns(p.id[k])) owned.push_back(k);
+    }
+    last_good->keep(p, &owned);
+  };
+  together([&] {
+    last_good.emplace(last_good_path, Particles{}, history);
+    keep_last_good();
+  });
   together([&] {
     if (history_file) history_file->append(history.text());  // the header, or a restart's rows
   });
@@ -901,7 +918,10 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
       const bool stop = run.step(stop_here);
       ++step;
       const bool at_end = step == plan.steps;
-      if (step % plan.history_every == 0 || at_end) add_row(step, run.totals());
+      if (step % plan.history_every == 0 || at_end) {
+        add_row(step, run.totals());
+        together(keep_last_good);
+      }
       const auto owned = [&](std::int64_t id) { return run.part().owns(id); };
       if (frames && (step % frames->every() == 0 || at_end)) {
         frames->write(*run.part().scene, *run.part().stepper, owned, run.loads());
@@ -944,10 +964,27 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
       }
     }
   } catch (const BlowUpError& e) {
-    // The run in one process keeps the state of the last history row; this one does not yet.
-    std::string message = blow_up_message(e, description, plan);
-    message.erase(message.rfind(". Last good state: "));
-    throw BlowUpError(message + " (a distributed run keeps no last good state yet)", e.cause());
+    // Every process is here (errors travel together): the state of the last history row, from
+    // every process to rank 0, field by field in rank order, then written by id.
+    Particles mine = last_good->kept();
+    Particles all;
+    for (const ParticleField& field : kParticleFields) {
+      if (!has(field, kLastGood)) continue;
+      std::visit(
+          [&](auto member) {
+            auto& values = mine.*member;
+            using Value = typename std::decay_t<decltype(values)>::value_type;
+            const std::vector<Value> own(values.begin(), values.end());
+            const std::vector<Value> every = values_of<Value>(gathered(bytes_of(own), true));
+            (all.*member).assign(every.begin(), every.end());
+            std::decay_t<decltype(values)>().swap(values);  // freed as soon as sent
+          },
+          field.member);
+    }
+    together([&] {
+      if (root) write_final_state(all, run.part().scene->material_names, last_good_path);
+    });
+    throw BlowUpError(blow_up_message(e, description, plan), e.cause());
   }
   const double loop_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();

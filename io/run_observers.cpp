@@ -173,17 +173,27 @@ LastGoodFile::LastGoodFile(std::string path, const Particles& particles, const H
   keep(particles);
 }
 
-void LastGoodFile::keep(const Particles& particles) {
+void LastGoodFile::keep(const Particles& particles, const std::vector<std::uint32_t>* rows) {
   scratch_.seekp(0);
-  const auto count = static_cast<std::uint64_t>(particles.size());
+  const auto count = static_cast<std::uint64_t>(rows != nullptr ? rows->size() : particles.size());
   scratch_.write(reinterpret_cast<const char*>(&count), sizeof count);
   for (const ParticleField& field : kParticleFields) {
     if (!has(field, kLastGood)) continue;
     std::visit(
         [&](auto member) {
           const auto& values = particles.*member;
-          scratch_.write(reinterpret_cast<const char*>(values.data()),
-                         static_cast<std::streamsize>(values.size() * sizeof values[0]));
+          if (rows == nullptr) {
+            scratch_.write(reinterpret_cast<const char*>(values.data()),
+                           static_cast<std::streamsize>(values.size() * sizeof values[0]));
+            return;
+          }
+          // kLastGood fields hold one value a particle (unused ones none).
+          if (values.empty()) return;
+          std::vector<std::decay_t<decltype(values[0])>> chosen;
+          chosen.reserve(rows->size());
+          for (const std::uint32_t row : *rows) chosen.push_back(values[row]);
+          scratch_.write(reinterpret_cast<const char*>(chosen.data()),
+                         static_cast<std::streamsize>(chosen.size() * sizeof chosen[0]));
         },
         field.member);
   }

@@ -57,12 +57,13 @@ class LastGoodFile : public Observer {
   void after_step(const Simulation& simulation) override;
   void interrupted(const Simulation& simulation, const Interruption& why) override;
 
- private:
-  /// Write the kLastGood fields of @p particles over the scratch file.
-  void keep(const Particles& particles);
+  /// Write the kLastGood fields of @p particles over the scratch file, of the rows @p rows in
+  /// that order (nullptr: every row). A distributed run keeps each process's own particles.
+  void keep(const Particles& particles, const std::vector<std::uint32_t>* rows = nullptr);
   /// The state last kept (only its kLastGood fields).
   Particles kept();
 
+ private:
   std::string path_;
   const History& history_;
   std::fstream scratch_;  ///< open, unlinked

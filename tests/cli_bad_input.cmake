@@ -53,8 +53,9 @@ expect_bad_input("'bond.criterion': needs a thermal: block" run ${CASES}/paper_5
                  --set bond.criterion=temperature --output ${WORK}/run_criterion)
 expect_bad_input("--threads must be at least 1" run ${CASES}/powder_bed_packing_ci.yaml --quiet
                  --threads 0 --output ${WORK}/run_threads)
-# Under mpirun, a case with what a distributed run cannot do yet (here state snapshots) is refused
-# before anything is written: exit 2, the reason printed once (by rank 0), not once a process.
+# Under mpirun, a case with what a distributed run cannot do yet (here removing the particles that
+# leave the domain) is refused before anything is written: exit 2, the reason printed once (by
+# rank 0), not once a process.
 find_program(MPIRUN mpirun)
 if(MPIRUN)
   # Open MPI refuses root without these (CI runs as root).
@@ -62,13 +63,13 @@ if(MPIRUN)
   set(ENV{OMPI_ALLOW_RUN_AS_ROOT_CONFIRM} 1)
   execute_process(COMMAND ${MPIRUN} --oversubscribe --bind-to none -np 2 ${BONDEM} run
                           ${CASES}/powder_bed_packing_ci.yaml --quiet --output ${WORK}/run_mpirun
-                          --set output.state_interval=0.001
+                          --set domain.remove_outside=true
                   RESULT_VARIABLE status ERROR_VARIABLE err OUTPUT_VARIABLE out)
   if(NOT status EQUAL 2)
-    message(FATAL_ERROR "mpirun -np 2 bondem run with state snapshots: expected exit 2, got ${status}: "
+    message(FATAL_ERROR "mpirun -np 2 bondem run with domain.remove_outside: expected exit 2, got ${status}: "
                         "${err}")
   endif()
-  set(reason "'output.state_interval' is not supported under mpirun yet")
+  set(reason "'domain.remove_outside' is not supported under mpirun yet")
   string(REGEX MATCHALL "is not supported under mpirun" reasons "${err}")
   list(LENGTH reasons times)
   if(NOT times EQUAL 1)

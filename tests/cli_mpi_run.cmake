@@ -42,14 +42,16 @@ set(migration_case ${TEST_CASES}/migration_stress.yaml)
 set(migration_options)
 set(drum_case ${CASES}/rotating_drum_ci.yaml)
 set(drum_options --set time.end=0.04 --set output.checkpoint_interval=0.02)
-set(outputs history.csv final_state.csv checkpoint.bin clusters.csv layer.csv state_000000.csv
-            state_000001.csv state_000003.csv layers.csv layer_001.csv layer_002.csv)
+set(outputs history.csv final_state.csv last_good_state.csv checkpoint.bin clusters.csv layer.csv
+            state_000000.csv state_000001.csv state_000003.csv layers.csv layer_001.csv
+            layer_002.csv)
 
 # Open MPI refuses root without these (CI runs as root).
 set(ENV{OMPI_ALLOW_RUN_AS_ROOT} 1)
 set(ENV{OMPI_ALLOW_RUN_AS_ROOT_CONFIRM} 1)
 
-# Runs bondem run with ARGN on `processes` processes (0: without mpirun); must exit 0.
+# Runs bondem run with ARGN on `processes` processes (0: without mpirun); must exit with
+# `expected_status` (0 when not set).
 function(run_on processes)
   if(processes EQUAL 0)
     set(command ${BONDEM} run ${ARGN} --quiet)
@@ -59,7 +61,10 @@ function(run_on processes)
                 --quiet)
   endif()
   execute_process(COMMAND ${command} RESULT_VARIABLE status ERROR_VARIABLE err OUTPUT_VARIABLE out)
-  if(NOT status EQUAL 0)
+  if(NOT DEFINED expected_status)
+    set(expected_status 0)
+  endif()
+  if(NOT status EQUAL expected_status)
     message(FATAL_ERROR "'${command}' exited with ${status}: ${err}")
   endif()
 endfunction()
@@ -104,6 +109,26 @@ function(expect_reference_frames name directory what)
     message(FATAL_ERROR "${what}: VTK frames differ from the run in one process: ${err}")
   endif()
 endfunction()
+
+# A blow-up: the pour at 13 times its time step limit (--unsafe-time-step) overlaps too far at
+# step 250. Exit 3, and history.csv and last_good_state.csv (the state of the last history row,
+# gathered from every process) with the bytes of the run in one process.
+set(directory ${WORK}/blown_${PROCESSES})
+file(REMOVE_RECURSE ${directory})
+set(expected_status 3)
+run_on(${PROCESSES} ${pour_case} --set time.step=2e-5 --unsafe-time-step
+       --set output.history_interval=0.0002 --output ${directory})
+unset(expected_status)
+if(PROCESSES EQUAL 0)
+  if(NOT EXISTS ${directory}/last_good_state.csv)
+    message(FATAL_ERROR "the blown-up reference run wrote no last_good_state.csv")
+  endif()
+else()
+  expect_reference_bytes(blown ${directory} "the blow-up on ${PROCESSES} processes")
+  if(NOT EXISTS ${directory}/last_good_state.csv)
+    message(FATAL_ERROR "the blow-up on ${PROCESSES} processes wrote no last_good_state.csv")
+  endif()
+endif()
 
 if(NOT PROCESSES EQUAL 0)
   foreach(name pour drum)  # the series with frames: the drum's show the mesh as a tool series
