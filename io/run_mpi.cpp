@@ -353,23 +353,29 @@ class DistributedRun {
     distribute(all, state, costs);
   }
 
-  /// One step: the opening kicks and the drift, the ghosts' motion from their owners, the
-  /// rebuild every process takes when one needs it, the forces and closing kicks, the totals, and
-  /// after a rebuild a redistribution. Returns whether some process was asked to stop
-  /// (@p stop_here: this one was).
+  /// One step: the opening kicks and the drift; then either the ghosts' motion from their
+  /// owners or, when some process needs a rebuild, the rebuild every process takes (particles
+  /// that crossed a cut migrate, halos are sent anew and each process's new part builds its list:
+  /// the one build of the step, as in one process); the forces and closing kicks; the totals.
+  /// Returns whether some process was asked to stop (@p stop_here: this one was).
   bool step(bool stop_here) {
     timer_.start();
     double local[2] = {part_.stepper->move(), stop_here ? 1.0 : 0.0};
     timer_.lap(Phase::kMove);
     MPI_Allreduce(MPI_IN_PLACE, local, 2, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
     timer_.lap(Phase::kAgree);
-    refresh_ghosts();
-    timer_.lap(Phase::kGhosts);
     const double half_skin = 0.5 * part_.scene->skin;
-    const bool rebuild = local[0] > half_skin * half_skin;
+    if (local[0] > half_skin * half_skin) {
+      wrap_periodic_positions();
+      if (!migrate()) redistribute();
+      timer_.lap(Phase::kRedistribute);
+    } else {
+      refresh_ghosts();
+      timer_.lap(Phase::kGhosts);
+    }
     std::exception_ptr failure;  // a blow-up here ends every process's run, below
     try {
-      part_.stepper->complete_step(rebuild);
+      part_.stepper->complete_step(false);  // a rebuild's list is the new part's
     } catch (...) {
       failure = std::current_exception();
     }
@@ -381,13 +387,8 @@ class DistributedRun {
     contacts_ = summed(part_.stepper->contacts());
     bonds_formed_ += static_cast<std::int64_t>(contacts_.bonds_formed);
     bonds_broken_ += static_cast<std::int64_t>(contacts_.bonds_broken);
-    // Sums that a redistributed stepper has not evaluated yet, before it replaces this one.
     load_sums_ = summed(part_.stepper->boundary_load_sums());
     timer_.lap(Phase::kTotals);
-    if (rebuild) {
-      if (!migrate()) redistribute();
-      timer_.lap(Phase::kRedistribute);
-    }
     return local[1] != 0.0;
   }
 
@@ -556,6 +557,19 @@ class DistributedRun {
     }
   }
 
+  /// Wraps the positions into the domain along its periodic axes, as a list build does: before
+  /// a rebuild's migration, so that each particle goes to the owner of its wrapped position.
+  void wrap_periodic_positions() {
+    Particles& p = part_.scene->particles;
+    const Domain& domain = part_.scene->domain;
+    const Eigen::Vector3d length = domain.length();
+    for (int a = 0; a < 3; ++a) {
+      if (!domain.periodic[a]) continue;
+      StaggeredVector<double>& coordinate = a == 0 ? p.x : (a == 1 ? p.y : p.z);
+      for (double& c : coordinate) c = wrap_periodic(c, domain.min[a], length[a]);
+    }
+  }
+
   /// Every ghost takes its owner's motion after the drift: position, velocity, spin and, in a
   /// thermal run, temperature, the state of a particle that pair forces read besides what a
   /// step does not change (radius, mass, material, id). Each process sends the others only the
@@ -602,7 +616,7 @@ class DistributedRun {
     return values_of<SlipRecord>(bondem::exchanged(out, counts));
   }
 
-  /// After a rebuild whose cuts still balance the work (the most loaded process within
+  /// At a rebuild whose cuts still balance the work (the most loaded process within
   /// kRebalanceAbove of the mean, by stepping_costs()): the particles that crossed a cut go to
   /// their new owners with the state of the pairs they lead, then each process sends the others
   /// its particles in their halos, whole, with the pairs those lead; nothing else travels.
@@ -612,7 +626,7 @@ class DistributedRun {
     const int rank = world_rank();
     const auto processes = static_cast<std::size_t>(size);
     const Particles& p = part_.scene->particles;
-    const std::vector<double> costs = stepping_costs(*part_.stepper);  // of the new list
+    const std::vector<double> costs = stepping_costs(*part_.stepper);  // of the last list
     double load[2] = {0.0, 0.0};  // the most loaded process's, and the total
     for (std::size_t k = 0; k < p.size(); ++k) {
       if (part_.owns(p.id[k])) load[0] += costs[k];
@@ -694,8 +708,10 @@ class DistributedRun {
       for (std::size_t n = 0; n < records; ++n) receives_[r].push_back(at++);
     }
 
-    // 3. The new part: its list from the positions of this rebuild, the pairs' state by ids.
+    // 3. The new part: its list from the positions of this rebuild (the step's build), the
+    // pairs' state by ids.
     StepperState state = part_.stepper->save_state(SavedArrays::kOmitted);
+    ++state.list.builds;
     state.list.x0 = next.x;
     state.list.y0 = next.y;
     state.list.z0 = next.z;
@@ -717,12 +733,12 @@ class DistributedRun {
     return true;
   }
 
-  /// After a rebuild that unbalanced the cuts: every process's owned particles and pairs' state,
+  /// At a rebuild that would unbalance the cuts: every process's owned particles and pairs' state,
   /// distributed anew over cuts of the particles' new positions (migration and rebalancing).
   void redistribute() {
     ++redistributions_;
     const Particles& p = part_.scene->particles;
-    const std::vector<double> costs = stepping_costs(*part_.stepper);  // of the new list
+    const std::vector<double> costs = stepping_costs(*part_.stepper);  // of the last list
     std::vector<char> records;
     std::vector<double> owned_costs;
     for (std::size_t k = 0; k < p.size(); ++k) {
@@ -736,9 +752,10 @@ class DistributedRun {
       if (part_.owns(s.first_id)) slips.push_back(s);
     }
     const Particles all = particles_from(gathered(records));
-    distribute(all,
-               redistribution_state(mine, all, values_of<SlipRecord>(gathered(bytes_of(slips)))),
-               values_of<double>(gathered(bytes_of(owned_costs))));
+    StepperState state =
+        redistribution_state(mine, all, values_of<SlipRecord>(gathered(bytes_of(slips))));
+    ++state.list.builds;  // the step's build
+    distribute(all, state, values_of<double>(gathered(bytes_of(owned_costs))));
   }
 
   /// The load above the mean (by stepping_costs()) at which a rebuild moves the cuts.
