@@ -44,9 +44,6 @@ std::string distributed_run_limits(const Case& description) {
   const std::string prefix = description.source + ": ";
   const std::string later = " is not supported under mpirun yet (issue 18): run without mpirun";
   if (!description.streams.empty()) return prefix + "'streams' (insertion during the run)" + later;
-  if (description.domain && description.domain->remove_outside) {
-    return prefix + "'domain.remove_outside'" + later;
-  }
   if (description.laser) return prefix + "'laser'" + later;
   return "";
 }
@@ -349,7 +346,8 @@ class DistributedRun {
         thermal_(all.thermal()),
         contacts_(state.contacts),
         bonds_formed_(state.bonds_formed),
-        bonds_broken_(state.bonds_broken) {
+        bonds_broken_(state.bonds_broken),
+        removed_(state.removed) {
     distribute(all, state, costs);
   }
 
@@ -367,6 +365,7 @@ class DistributedRun {
     const double half_skin = 0.5 * part_.scene->skin;
     if (local[0] > half_skin * half_skin) {
       wrap_periodic_positions();
+      mark_outside();
       if (!migrate()) redistribute();
       timer_.lap(Phase::kRedistribute);
     } else {
@@ -430,6 +429,8 @@ class DistributedRun {
                     : ambient;
       t.laser_energy = stepper.laser_energy();
     }
+    t.removed = removed_.count;
+    t.removed_mass = removed_.mass;
     t.loads = boundary_loads_of(load_sums_);
     return t;
   }
@@ -464,6 +465,7 @@ class DistributedRun {
     whole.contacts = contacts_;
     whole.bonds_formed = bonds_formed_;
     whole.bonds_broken = bonds_broken_;
+    whole.removed = removed_;
     for (int axis = 0; axis < 3; ++axis) {
       StaggeredVector<double> positions(by_id.size());
       for (std::size_t k = 0; k < by_id.size(); ++k) {
@@ -570,6 +572,31 @@ class DistributedRun {
     }
   }
 
+  /// With Domain::remove_outside, at a rebuild: marks the particles outside the domain, which
+  /// the new parts leave out (a ghost's owner drops it too), and counts the owned ones into the
+  /// run's removed particles and mass. The mass removed at a rebuild is one exact sum over every
+  /// process's particles, rounded once, as the run in one process adds it.
+  void mark_outside() {
+    const Particles& p = part_.scene->particles;
+    const Domain& domain = part_.scene->domain;
+    outside_.assign(p.size(), 0);
+    if (!domain.remove_outside) return;
+    ExactSum mass;
+    std::int64_t count = 0;
+    for (std::size_t k = 0; k < p.size(); ++k) {
+      if (!domain.outside({p.x[k], p.y[k], p.z[k]})) continue;
+      outside_[k] = 1;
+      if (!part_.owns(p.id[k])) continue;
+      ++count;
+      mass.add(p.mass[k]);
+    }
+    MPI_Allreduce(MPI_IN_PLACE, &count, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
+    const double removed_mass = summed(std::vector<ExactSum>{mass})[0].value();
+    if (count == 0) return;
+    removed_.count += count;
+    removed_.mass += removed_mass;
+  }
+
   /// Every ghost takes its owner's motion after the drift: position, velocity, spin and, in a
   /// thermal run, temperature, the state of a particle that pair forces read besides what a
   /// step does not change (radius, mass, material, id). Each process sends the others only the
@@ -642,7 +669,7 @@ class DistributedRun {
     std::vector<std::uint32_t> kept;
     std::vector<std::vector<char>> leaving(processes);
     for (std::size_t k = 0; k < p.size(); ++k) {
-      if (!part_.owns(p.id[k])) continue;
+      if (!part_.owns(p.id[k]) || outside_[k] != 0) continue;  // outside: removed
       new_owner[k] = decomposition_.owner(p.x[k], p.y[k], p.z[k]);
       if (new_owner[k] == rank) {
         kept.push_back(static_cast<std::uint32_t>(k));
@@ -712,6 +739,7 @@ class DistributedRun {
     // pairs' state by ids.
     StepperState state = part_.stepper->save_state(SavedArrays::kOmitted);
     ++state.list.builds;
+    state.removed = removed_;
     state.list.x0 = next.x;
     state.list.y0 = next.y;
     state.list.z0 = next.z;
@@ -742,11 +770,12 @@ class DistributedRun {
     std::vector<char> records;
     std::vector<double> owned_costs;
     for (std::size_t k = 0; k < p.size(); ++k) {
-      if (!part_.owns(p.id[k])) continue;
+      if (!part_.owns(p.id[k]) || outside_[k] != 0) continue;  // outside: removed
       pack_particle(p, k, records);
       owned_costs.push_back(costs[k]);
     }
-    const StepperState mine = part_.stepper->save_state();
+    StepperState mine = part_.stepper->save_state();
+    mine.removed = removed_;
     std::vector<SlipRecord> slips;
     for (const SlipRecord& s : mine.slips) {
       if (part_.owns(s.first_id)) slips.push_back(s);
@@ -774,6 +803,8 @@ class DistributedRun {
   ContactSummary contacts_;  ///< of the last force evaluation, all processes together
   std::vector<ExactSum> load_sums_;
   std::int64_t bonds_formed_ = 0, bonds_broken_ = 0;
+  ParticleTally removed_;              ///< for leaving the domain, all processes together
+  std::vector<std::uint8_t> outside_;  ///< per particle of the part, at a rebuild: removed
   std::int64_t redistributions_ = 0;
   std::int64_t migrations_ = 0;
   PhaseTimer timer_;
