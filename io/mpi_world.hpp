@@ -6,7 +6,11 @@
 
 #include <mpi.h>
 
+#include <cstdint>
 #include <cstring>
+#include <limits>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace bondem {
@@ -25,53 +29,115 @@ inline int world_size() {
   return size;
 }
 
+/// Bytes travel in units of kTransferUnit bytes (an MPI datatype of that many bytes), each
+/// process's share padded to whole units, and their counts as 64-bit integers: MPI's int counts
+/// and offsets then reach 2^31 units (128 GiB) where counting bytes would stop at 2 GiB (a
+/// gather of the records of some 8 million particles).
+inline constexpr std::int64_t kTransferUnit = 64;
+
+/// The MPI datatype of one transfer unit, committed on first use.
+inline MPI_Datatype transfer_unit() {
+  static const MPI_Datatype unit = [] {
+    MPI_Datatype type = MPI_DATATYPE_NULL;
+    MPI_Type_contiguous(static_cast<int>(kTransferUnit), MPI_BYTE, &type);
+    MPI_Type_commit(&type);
+    return type;
+  }();
+  return unit;
+}
+
+/// Units that hold @p bytes.
+inline std::int64_t units_of(std::int64_t bytes) {
+  return (bytes + kTransferUnit - 1) / kTransferUnit;
+}
+
+/// @p units as an MPI count; throws std::length_error beyond what an int holds.
+inline int mpi_count(std::int64_t units) {
+  if (units > std::numeric_limits<int>::max()) {
+    throw std::length_error("a transfer between processes exceeds 2^31 units of " +
+                            std::to_string(kTransferUnit) + " B");
+  }
+  return static_cast<int>(units);
+}
+
+/// @p parts (each a process's bytes padded to whole units, one after the other, @p bytes[r]
+/// bytes of process r in its units) with the padding taken out, in place.
+inline void unpad(std::vector<char>& parts, const std::vector<std::int64_t>& bytes) {
+  std::size_t to = 0, from = 0;
+  for (const std::int64_t b : bytes) {
+    const auto n = static_cast<std::size_t>(b);
+    if (to != from) std::memmove(parts.data() + to, parts.data() + from, n);
+    to += n;
+    from += static_cast<std::size_t>(units_of(b) * kTransferUnit);
+  }
+  parts.resize(to);
+}
+
 /// Every process's @p mine, concatenated in rank order, on every process (@p at_root_only: on
 /// rank 0 only; the others get nothing).
 inline std::vector<char> gathered(const std::vector<char>& mine, bool at_root_only = false) {
-  const int size = world_size();
-  const int bytes = static_cast<int>(mine.size());
-  std::vector<int> counts(static_cast<std::size_t>(size)), offsets(static_cast<std::size_t>(size));
-  MPI_Allgather(&bytes, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
-  int total = 0;
-  for (int r = 0; r < size; ++r) {
-    offsets[static_cast<std::size_t>(r)] = total;
-    total += counts[static_cast<std::size_t>(r)];
+  const auto size = static_cast<std::size_t>(world_size());
+  const auto my_bytes = static_cast<std::int64_t>(mine.size());
+  std::vector<std::int64_t> bytes(size);
+  MPI_Allgather(&my_bytes, 1, MPI_INT64_T, bytes.data(), 1, MPI_INT64_T, MPI_COMM_WORLD);
+  std::vector<int> counts(size), offsets(size);
+  std::int64_t total = 0;
+  for (std::size_t r = 0; r < size; ++r) {
+    offsets[r] = mpi_count(total);
+    counts[r] = mpi_count(units_of(bytes[r]));
+    total += counts[r];
   }
-  std::vector<char> all;
+  mpi_count(total);
+  std::vector<char> padded(static_cast<std::size_t>(units_of(my_bytes) * kTransferUnit));
+  if (!mine.empty()) std::memcpy(padded.data(), mine.data(), mine.size());
+  const bool receives = !at_root_only || world_rank() == 0;
+  std::vector<char> all(receives ? static_cast<std::size_t>(total * kTransferUnit) : 0);
+  const int my_units = mpi_count(units_of(my_bytes));
   if (at_root_only) {
-    if (world_rank() == 0) all.resize(static_cast<std::size_t>(total));
-    MPI_Gatherv(mine.data(), bytes, MPI_BYTE, all.data(), counts.data(), offsets.data(), MPI_BYTE,
-                0, MPI_COMM_WORLD);
+    MPI_Gatherv(padded.data(), my_units, transfer_unit(), all.data(), counts.data(), offsets.data(),
+                transfer_unit(), 0, MPI_COMM_WORLD);
   } else {
-    all.resize(static_cast<std::size_t>(total));
-    MPI_Allgatherv(mine.data(), bytes, MPI_BYTE, all.data(), counts.data(), offsets.data(),
-                   MPI_BYTE, MPI_COMM_WORLD);
+    MPI_Allgatherv(padded.data(), my_units, transfer_unit(), all.data(), counts.data(),
+                   offsets.data(), transfer_unit(), MPI_COMM_WORLD);
   }
+  if (receives) unpad(all, bytes);
   return all;
 }
 
 /// Every process sends @p out[r] to process r; returns what it receives, concatenated in rank
 /// order, with the bytes from each process in @p counts.
 inline std::vector<char> exchanged(const std::vector<std::vector<char>>& out,
-                                   std::vector<int>& counts) {
+                                   std::vector<std::int64_t>& counts) {
   const auto size = static_cast<std::size_t>(world_size());
-  std::vector<int> send_counts(size), send_offsets(size), receive_offsets(size);
-  std::vector<char> sent;
+  std::vector<std::int64_t> send_bytes(size);
+  std::vector<int> send_units(size), send_offsets(size), receive_units(size), receive_offsets(size);
+  std::int64_t total = 0;
   for (std::size_t r = 0; r < size; ++r) {
-    send_offsets[r] = static_cast<int>(sent.size());
-    send_counts[r] = static_cast<int>(out[r].size());
-    sent.insert(sent.end(), out[r].begin(), out[r].end());
+    send_bytes[r] = static_cast<std::int64_t>(out[r].size());
+    send_offsets[r] = mpi_count(total);
+    send_units[r] = mpi_count(units_of(send_bytes[r]));
+    total += send_units[r];
+  }
+  std::vector<char> sent(static_cast<std::size_t>(mpi_count(total) * kTransferUnit));
+  for (std::size_t r = 0; r < size; ++r) {
+    if (!out[r].empty()) {
+      std::memcpy(sent.data() + static_cast<std::size_t>(send_offsets[r]) * kTransferUnit,
+                  out[r].data(), out[r].size());
+    }
   }
   counts.assign(size, 0);
-  MPI_Alltoall(send_counts.data(), 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
-  int total = 0;
+  MPI_Alltoall(send_bytes.data(), 1, MPI_INT64_T, counts.data(), 1, MPI_INT64_T, MPI_COMM_WORLD);
+  total = 0;
   for (std::size_t r = 0; r < size; ++r) {
-    receive_offsets[r] = total;
-    total += counts[r];
+    receive_offsets[r] = mpi_count(total);
+    receive_units[r] = mpi_count(units_of(counts[r]));
+    total += receive_units[r];
   }
-  std::vector<char> received(static_cast<std::size_t>(total));
-  MPI_Alltoallv(sent.data(), send_counts.data(), send_offsets.data(), MPI_BYTE, received.data(),
-                counts.data(), receive_offsets.data(), MPI_BYTE, MPI_COMM_WORLD);
+  std::vector<char> received(static_cast<std::size_t>(mpi_count(total) * kTransferUnit));
+  MPI_Alltoallv(sent.data(), send_units.data(), send_offsets.data(), transfer_unit(),
+                received.data(), receive_units.data(), receive_offsets.data(), transfer_unit(),
+                MPI_COMM_WORLD);
+  unpad(received, counts);
   return received;
 }
 

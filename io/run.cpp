@@ -202,8 +202,8 @@ void remove_stale_outputs(const std::filesystem::path& directory, const std::fil
       const bool digits =
           !pid.empty() && pid.size() < 10 &&
           std::all_of(pid.begin(), pid.end(), [](char c) { return c >= '0' && c <= '9'; });
-      if (!digits ||
-          !(is_run_output(target) || target == ".bondem_probe" || target == kLastGoodScratch)) {
+      if (!digits || !(is_run_output(target) || target == ".bondem_probe" ||
+                       target.rfind(kLastGoodScratch, 0) == 0)) {
         continue;
       }
       const auto owner = static_cast<pid_t>(std::stol(pid));

@@ -266,7 +266,7 @@ class PieceFrames {
       derived[piece].insert(derived[piece].end(), {coordination[i], bond_count[i]});
     }
 
-    std::vector<int> received;
+    std::vector<std::int64_t> received;
     const std::vector<char> arrived = bondem::exchanged(records, received);
     std::vector<std::vector<char>> out;
     for (const std::vector<double>& values : derived) out.push_back(bytes_of(values));
@@ -639,7 +639,7 @@ class DistributedRun {
   static std::vector<SlipRecord> exchanged(const std::vector<std::vector<SlipRecord>>& slips) {
     std::vector<std::vector<char>> out;
     for (const std::vector<SlipRecord>& some : slips) out.push_back(bytes_of(some));
-    std::vector<int> counts;
+    std::vector<std::int64_t> counts;
     return values_of<SlipRecord>(bondem::exchanged(out, counts));
   }
 
@@ -687,7 +687,7 @@ class DistributedRun {
       part_.stepper->for_each_slip(std::span(&k, 1),
                                    [&](const SlipRecord& slip) { to.push_back(slip); });
     }
-    std::vector<int> counts;
+    std::vector<std::int64_t> counts;
     const std::vector<char> arrived = bondem::exchanged(leaving, counts);
     const std::vector<SlipRecord> arrived_slips = exchanged(leaving_slips);
     owned_slips.insert(owned_slips.end(), arrived_slips.begin(), arrived_slips.end());
@@ -914,7 +914,7 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
     last_good->keep(p, &owned);
   };
   together([&] {
-    last_good.emplace(last_good_path, Particles{}, history);
+    last_good.emplace(last_good_path, Particles{}, history, "_" + std::to_string(world_rank()));
     keep_last_good();
   });
   together([&] {

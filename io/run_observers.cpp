@@ -155,16 +155,17 @@ namespace {
 /// The scratch file of a LastGoodFile writing @p path: hidden, beside it, named like the
 /// temporaries remove_stale_outputs() clears (it is unlinked at once; a name can be left only by
 /// a kill between its creation and its unlinking).
-std::filesystem::path last_good_scratch(const std::string& path) {
+std::filesystem::path last_good_scratch(const std::string& path, const std::string& tag) {
   return std::filesystem::path(path).parent_path() /
-         (std::string(kLastGoodScratch) + ".tmp." + std::to_string(::getpid()));
+         (std::string(kLastGoodScratch) + tag + ".tmp." + std::to_string(::getpid()));
 }
 
 }  // namespace
 
-LastGoodFile::LastGoodFile(std::string path, const Particles& particles, const History& history)
+LastGoodFile::LastGoodFile(std::string path, const Particles& particles, const History& history,
+                           const std::string& scratch_tag)
     : path_(std::move(path)), history_(history) {
-  const std::filesystem::path scratch = last_good_scratch(path_);
+  const std::filesystem::path scratch = last_good_scratch(path_, scratch_tag);
   scratch_.open(scratch, std::ios::in | std::ios::out | std::ios::binary | std::ios::trunc);
   if (!scratch_) throw std::runtime_error(scratch.string() + ": cannot open for writing");
   // The open stream keeps the file; its name is not needed any more.

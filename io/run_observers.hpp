@@ -40,7 +40,8 @@ class HistoryFile {
   std::ofstream stream_;
 };
 
-/// Name, before `.tmp.<pid>`, of a LastGoodFile's scratch file in the output directory.
+/// Name, before its tag and `.tmp.<pid>`, of a LastGoodFile's scratch file in the output
+/// directory.
 inline constexpr std::string_view kLastGoodScratch = ".bondem_last_good";
 
 /// The last state known to be sound (positions, velocities, radii, ids): the state of the
@@ -52,8 +53,11 @@ inline constexpr std::string_view kLastGoodScratch = ".bondem_last_good";
 /// many bytes per history row (about 12 ms at 10^6 particles).
 class LastGoodFile : public Observer {
  public:
-  /// Throws std::runtime_error when the scratch file cannot be opened or written.
-  LastGoodFile(std::string path, const Particles& particles, const History& history);
+  /// Throws std::runtime_error when the scratch file cannot be opened or written. @p scratch_tag
+  /// goes into the scratch file's name: processes of a distributed run on several machines may
+  /// share a process id, not a rank.
+  LastGoodFile(std::string path, const Particles& particles, const History& history,
+               const std::string& scratch_tag = "");
   void after_step(const Simulation& simulation) override;
   void interrupted(const Simulation& simulation, const Interruption& why) override;
 

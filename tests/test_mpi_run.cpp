@@ -153,6 +153,45 @@ TEST(MpiRun, EveryParticleFollowsTheWholeRunBitForBit) {
   }
 }
 
+/// Bytes of process @p from for process @p to: a length that is no multiple of the transfer
+/// unit (zero for some pairs) and contents that tell them apart.
+std::vector<char> message(int from, int to) {
+  std::vector<char> bytes(static_cast<std::size_t>((37 * from + 101 * to) % 150));
+  for (std::size_t k = 0; k < bytes.size(); ++k) {
+    bytes[k] = static_cast<char>(from * 31 + to * 7 + static_cast<int>(k));
+  }
+  return bytes;
+}
+
+// Byte counts of any length travel padded to whole units of kTransferUnit bytes; what arrives is
+// exactly what was sent, in rank order, without the padding.
+TEST(MpiTransfers, GatheredAndExchangedBytesArriveExactly) {
+  const int size = world_size();
+  const int rank = world_rank();
+  std::vector<char> expected_gather;
+  for (int r = 0; r < size; ++r) {
+    const std::vector<char> part = message(r, 0);
+    expected_gather.insert(expected_gather.end(), part.begin(), part.end());
+  }
+  EXPECT_EQ(gathered(message(rank, 0)), expected_gather);
+  const std::vector<char> at_root = gathered(message(rank, 0), true);
+  EXPECT_EQ(at_root, rank == 0 ? expected_gather : std::vector<char>{});
+
+  std::vector<std::vector<char>> out;
+  std::vector<char> expected;
+  for (int r = 0; r < size; ++r) {
+    out.push_back(message(rank, r));
+    const std::vector<char> in = message(r, rank);
+    expected.insert(expected.end(), in.begin(), in.end());
+  }
+  std::vector<std::int64_t> counts;
+  EXPECT_EQ(exchanged(out, counts), expected);
+  for (int r = 0; r < size; ++r) {
+    EXPECT_EQ(counts[static_cast<std::size_t>(r)],
+              static_cast<std::int64_t>(message(r, rank).size()));
+  }
+}
+
 }  // namespace
 }  // namespace bondem
 
