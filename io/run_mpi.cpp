@@ -44,7 +44,6 @@ std::string distributed_run_limits(const Case& description) {
   const std::string prefix = description.source + ": ";
   const std::string later = " is not supported under mpirun yet (issue 18): run without mpirun";
   if (!description.streams.empty()) return prefix + "'streams' (insertion during the run)" + later;
-  if (description.laser) return prefix + "'laser'" + later;
   return "";
 }
 
@@ -145,6 +144,27 @@ ContactSummary summed(const ContactSummary& mine) {
   total.max_overlap_fraction = maxima[1];
   total.thermal_step_ratio = maxima[2];
   return total;
+}
+
+/// How the processes agree on a laser deposit (deposit_laser_heat): the smallest radius in the
+/// beam's window and each column's highest particle, equal tops going to the smaller id.
+LaserAgreement laser_agreement() {
+  LaserAgreement agreement;
+  agreement.smallest_radius = [](double& r_min) {
+    MPI_Allreduce(MPI_IN_PLACE, &r_min, 1, MPI_DOUBLE, MPI_MIN, MPI_COMM_WORLD);
+  };
+  agreement.highest_tops = [](std::vector<double>& top, std::vector<std::int64_t>& id) {
+    const std::vector<double> mine = top;
+    MPI_Allreduce(MPI_IN_PLACE, top.data(), static_cast<int>(top.size()), MPI_DOUBLE, MPI_MAX,
+                  MPI_COMM_WORLD);
+    // Of the processes whose top is the highest, the smallest id.
+    for (std::size_t c = 0; c < top.size(); ++c) {
+      if (mine[c] != top[c]) id[c] = std::numeric_limits<std::int64_t>::max();
+    }
+    MPI_Allreduce(MPI_IN_PLACE, id.data(), static_cast<int>(id.size()), MPI_INT64_T, MPI_MIN,
+                  MPI_COMM_WORLD);
+  };
+  return agreement;
 }
 
 /// The phases of a distributed step, timed for BONDEM_MPI_PROFILE.
@@ -522,6 +542,7 @@ class DistributedRun {
     halo_ = halo;
     part_.stepper.reset();  // before the scene it steps
     part_ = make_rank_part(frame_, d, rank, halo, all, state);
+    if (frame_.laser) part_.stepper->share_laser(laser_agreement());
 
     // Where each particle of the part sits, by id.
     const Particles& p = part_.scene->particles;
@@ -756,6 +777,7 @@ class DistributedRun {
     std::sort(fresh.owned_ids.begin(), fresh.owned_ids.end());
     fresh.stepper = std::make_unique<Stepper>(*fresh.scene, std::move(state));
     fresh.stepper->count_only(fresh.owned_ids);
+    if (frame_.laser) fresh.stepper->share_laser(laser_agreement());
     part_.stepper.reset();  // before the scene it steps
     part_ = std::move(fresh);
     return true;

@@ -17,6 +17,10 @@
 #   leaving    the migration stress test with z not periodic and domain.remove_outside: 139 of
 #              the 500 spheres leave through the z faces and are removed (counted, with their
 #              mass, in history.csv).
+#   laser      cases/laser_sintering_ci.yaml with its beam on from 50 us to the end at 150 us,
+#              over the falling powder: the processes agree on the beam's columns (each column's
+#              highest particle over all of them), so each particle absorbs what it absorbs in one
+#              process; VTK frames compared as the pour's.
 #   drum       cases/rotating_drum_ci.yaml, shortened to 40 ms: spheres falling into a rotating
 #              drum that is a triangle mesh (every process holds the whole mesh; 159 spheres touch
 #              it at the end, their contact history travelling with them); VTK frames at 0 and
@@ -45,6 +49,9 @@ set(migration_case ${TEST_CASES}/migration_stress.yaml)
 set(migration_options)
 set(leaving_case ${TEST_CASES}/migration_stress.yaml)
 set(leaving_options --set domain.periodic.2=false --set domain.remove_outside=true)
+set(laser_case ${CASES}/laser_sintering_ci.yaml)
+set(laser_options --set laser.start_time=0.00005 --set time.end=0.00015
+                  --set output.vtk_interval=0.00005 --set output.checkpoint_interval=0.0001)
 set(drum_case ${CASES}/rotating_drum_ci.yaml)
 set(drum_options --set time.end=0.04 --set output.checkpoint_interval=0.02)
 set(outputs history.csv final_state.csv last_good_state.csv checkpoint.bin clusters.csv layer.csv
@@ -89,7 +96,7 @@ function(expect_reference_bytes name directory what)
   endforeach()
 endfunction()
 
-foreach(name pour spreading thermal migration leaving drum)
+foreach(name pour spreading thermal migration leaving laser drum)
   set(directory ${WORK}/${name}_${PROCESSES})
   file(REMOVE_RECURSE ${directory})
   run_on(${PROCESSES} ${${name}_case} ${${name}_options} --output ${directory})
@@ -136,7 +143,7 @@ else()
 endif()
 
 if(NOT PROCESSES EQUAL 0)
-  foreach(name pour drum)  # the series with frames: the drum's show the mesh as a tool series
+  foreach(name pour laser drum)  # the series with frames; the drum's show the mesh as tools
     expect_reference_frames(${name} ${WORK}/${name}_${PROCESSES} "${name} on ${PROCESSES} processes")
   endforeach()
 

@@ -16,6 +16,8 @@ constexpr double kWindowHalfWidths = 3.0;
 /// Upper bound on columns per side of the window: 512^2 columns cost ~3 MB and a few ms.
 constexpr std::size_t kMaxColumnsPerSide = 512;
 constexpr std::size_t kNoOwner = std::numeric_limits<std::size_t>::max();
+/// A column whose highest particle another process holds (LaserAgreement).
+constexpr std::size_t kElsewhere = kNoOwner - 1;
 
 double segment_duration(const LaserSegment& segment) {
   if (!(segment.speed > 0.0) || !std::isfinite(segment.speed)) {
@@ -122,13 +124,13 @@ namespace {
 /// smallest radius among them (infinite when none).
 double collect_candidates(const double* x, const double* y, const double* radius, std::size_t n,
                           const Eigen::Vector2d& centre, double half, LaserPeriods periods,
-                          LaserScratch& scratch) {
+                          const std::uint8_t* counted, LaserScratch& scratch) {
   std::vector<LaserScratch::Candidate>& candidates = scratch.candidates;
   candidates.clear();
   double r_min = std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < n; ++i) {
     const double r = radius[i];
-    if (!(r > 0.0)) continue;
+    if (!(r > 0.0) || (counted != nullptr && counted[i] == 0)) continue;
     const auto [x_first, x_last] = images_in_window(x[i] - centre.x(), half + r, periods.x);
     const auto [y_first, y_last] = images_in_window(y[i] - centre.y(), half + r, periods.y);
     for (double ky = y_first; ky <= y_last; ++ky) {
@@ -188,8 +190,30 @@ void splat_tops(const double* z, const double* radius, const std::int64_t* id, d
   }
 }
 
+/// The processes' columns put together (LaserAgreement): each column keeps this process's owner
+/// when its particle is the highest of all, kElsewhere when another process's is, kNoOwner when
+/// no particle is over it.
+void agree_on_tops(const std::int64_t* id, const LaserAgreement& agreement, LaserScratch& scratch) {
+  const std::size_t count = scratch.top.size();
+  std::vector<double> top = scratch.top;
+  std::vector<std::int64_t> top_id(count, std::numeric_limits<std::int64_t>::max());
+  for (std::size_t c = 0; c < count; ++c) {
+    if (scratch.owner[c] != kNoOwner) top_id[c] = id[scratch.candidates[scratch.owner[c]].index];
+  }
+  const std::vector<std::int64_t> mine = top_id;
+  agreement.highest_tops(top, top_id);
+  for (std::size_t c = 0; c < count; ++c) {
+    if (top[c] == -std::numeric_limits<double>::infinity()) {
+      scratch.owner[c] = kNoOwner;
+    } else if (scratch.owner[c] == kNoOwner || top[c] != scratch.top[c] || top_id[c] != mine[c]) {
+      scratch.owner[c] = kElsewhere;
+    }
+  }
+}
+
 /// Each column's share of @p absorbed_power (its rectangle's beam_fraction, factored as x strip
-/// times y strip) to its owner's heat_rate, or to the missed power.
+/// times y strip) to its owner's heat_rate (absorbed elsewhere: another process's particle's), or
+/// to the missed power.
 LaserDeposit share_power(double absorbed_power, double half, double h, double w,
                          std::size_t columns, LaserScratch& scratch, double* heat_rate) {
   const std::vector<double> fraction = strip_fractions(columns, h, half, w);
@@ -204,7 +228,7 @@ LaserDeposit share_power(double absorbed_power, double half, double h, double w,
       if (slot == kNoOwner) {
         deposit.missed += share;
       } else {
-        gained[slot] += share;
+        if (slot != kElsewhere) gained[slot] += share;
         deposit.absorbed += share;
       }
     }
@@ -220,8 +244,12 @@ LaserDeposit share_power(double absorbed_power, double half, double h, double w,
 LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* z,
                                 const double* radius, const std::int64_t* id, std::size_t n,
                                 const Laser& laser, double time, double* heat_rate,
-                                LaserScratch& scratch, LaserPeriods periods) {
+                                LaserScratch& scratch, LaserPeriods periods,
+                                const std::uint8_t* counted, const LaserAgreement* agreement) {
   check_beam(laser);
+  if ((counted == nullptr) != (agreement == nullptr) || (agreement != nullptr && id == nullptr)) {
+    throw std::invalid_argument("laser deposit: counted particles need an agreement and ids");
+  }
   if (!(periods.x >= 0.0) || !(periods.y >= 0.0)) {
     throw std::invalid_argument("laser periods must be non-negative (0: not periodic)");
   }
@@ -229,10 +257,12 @@ LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* 
   if (!centre) return {};
   const double w = laser.spot_radius;
   const double half = kWindowHalfWidths * w;
-  const double r_min = collect_candidates(x, y, radius, n, *centre, half, periods, scratch);
+  double r_min = collect_candidates(x, y, radius, n, *centre, half, periods, counted, scratch);
+  if (agreement != nullptr) agreement->smallest_radius(r_min);
   const std::size_t columns = column_count(w, half, r_min);
   const double h = 2.0 * half / static_cast<double>(columns);
   splat_tops(z, radius, id, half, h, columns, scratch);
+  if (agreement != nullptr) agree_on_tops(id, *agreement, scratch);
   return share_power(laser.absorptivity * laser.power, half, h, w, columns, scratch, heat_rate);
 }
 

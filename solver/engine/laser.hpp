@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <vector>
 
@@ -93,12 +94,28 @@ struct LaserScratch {
   std::vector<double> gained;
 };
 
+/// How the processes of a distributed run, each holding some of the particles, agree on one
+/// deposit: what every process must see the same (set by the run; no MPI here).
+struct LaserAgreement {
+  /// Replaces @p r_min, this process's smallest radius in the window, by every process's.
+  std::function<void(double& r_min)> smallest_radius;
+  /// Replaces each column's @p top (this process's highest surface, -inf for none) and @p id (its
+  /// particle's id) by the highest over every process, equal tops going to the smaller id.
+  std::function<void(std::vector<double>& top, std::vector<std::int64_t>& id)> highest_tops;
+};
+
 /// deposit_laser_heat with caller-owned buffers: the same result without per-call allocation.
 /// With particle ids @p id, a column whose tops are equal goes to the smaller id instead of the
 /// smaller index, so that the deposit does not depend on the order the particles are stored in.
+/// With @p counted (one flag per particle) and @p agreement (both, or neither), only the counted
+/// particles take part here and the processes agree on the columns: each process's counted
+/// particles get what they get when one process deposits on every particle, and every process
+/// returns the same totals (a distributed run; ids required).
 LaserDeposit deposit_laser_heat(const double* x, const double* y, const double* z,
                                 const double* radius, const std::int64_t* id, std::size_t n,
                                 const Laser& laser, double time, double* heat_rate,
-                                LaserScratch& scratch, LaserPeriods periods = {});
+                                LaserScratch& scratch, LaserPeriods periods = {},
+                                const std::uint8_t* counted = nullptr,
+                                const LaserAgreement* agreement = nullptr);
 
 }  // namespace bondem

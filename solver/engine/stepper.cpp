@@ -125,14 +125,20 @@ void Stepper::compute_forces(double laser_time) {
 void Stepper::deposit_laser(double laser_time) {
   laser_power_ = laser_missed_power_ = 0.0;
   Particles& p = scene_.particles;
-  if (!p.thermal() || !scene_.laser || !std::isfinite(laser_time)) return;
+  // A share of a distributed run: its counted particles only, the columns agreed on (every share
+  // takes part, with particles or without).
+  const bool shared = share_only_ && laser_agreement_.has_value();
+  if ((!p.thermal() && !shared) || !scene_.laser || !std::isfinite(laser_time)) return;
   // Serial, ties by id: the deposit depends on neither the thread count nor the particle order.
   const Domain& domain = scene_.domain;
   const LaserPeriods periods{domain.periodic[0] ? domain.length().x() : 0.0,
                              domain.periodic[1] ? domain.length().y() : 0.0};
+  const std::uint8_t none = 0;  // a share with no particle still takes part in the agreement
+  const std::uint8_t* counted = !shared ? nullptr : counted_.empty() ? &none : counted_.data();
   const LaserDeposit deposit =
       deposit_laser_heat(p.x.data(), p.y.data(), p.z.data(), p.radius.data(), p.id.data(), p.size(),
-                         *scene_.laser, laser_time, p.heat_rate.data(), laser_scratch_, periods);
+                         *scene_.laser, laser_time, p.heat_rate.data(), laser_scratch_, periods,
+                         counted, shared ? &*laser_agreement_ : nullptr);
   laser_power_ = deposit.absorbed;
   laser_missed_power_ = deposit.missed;
 }
@@ -324,9 +330,10 @@ bool Stepper::finish_step(double dt) {
       p.peak_temperature[i] = std::max(p.peak_temperature[i], p.temperature[i]);
       finite = finite && std::isfinite(p.temperature[i]);
     }
-    laser_energy_ += laser_power_ * dt;
-    laser_missed_ += laser_missed_power_ * dt;
   }
+  // Zero without a laser; a share of a distributed run that holds no particle counts it too.
+  laser_energy_ += laser_power_ * dt;
+  laser_missed_ += laser_missed_power_ * dt;
   return finite;
 }
 

@@ -157,6 +157,10 @@ class Stepper {
   void count_only(std::vector<std::int64_t> owned_ids);
   /// Per particle, 1 where it counts (count_only()); empty without count_only(): all count.
   const std::vector<std::uint8_t>& counted() const { return counted_; }
+  /// With count_only(): the laser heats only the counted particles, the processes agreeing on
+  /// its columns through @p agreement (deposit_laser_heat), so that each particle gets what the
+  /// run in one process gives it and every process the same laser power.
+  void share_laser(LaserAgreement agreement) { laser_agreement_ = std::move(agreement); }
   /// Bonds formed so far (a pair joining the adhesive branch of eq. 25).
   std::int64_t bonds_formed() const { return bonds_formed_; }
   /// Bonds lost so far (overlap back at delta_crit, the pair apart, or the criterion failing).
@@ -258,7 +262,8 @@ class Stepper {
   double laser_energy_ = 0.0;
   double laser_missed_ = 0.0;
   LaserScratch laser_scratch_;
-  double laser_power_ = 0.0;  ///< absorbed in the last evaluation [W]
+  std::optional<LaserAgreement> laser_agreement_;  ///< share_laser()'s
+  double laser_power_ = 0.0;                       ///< absorbed in the last evaluation [W]
   double laser_missed_power_ = 0.0;
   std::vector<std::int64_t> counted_ids_;  ///< count_only()'s ids, sorted
   bool share_only_ = false;                ///< count_only() was called
