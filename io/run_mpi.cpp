@@ -251,32 +251,24 @@ class PieceFrames {
              std::vector<BoundaryLoad> loads) {
     const auto processes = static_cast<std::size_t>(world_size());
     const Particles& p = scene.particles;
-    const NeighborList& list = stepper.neighbors();
-    const PairForces& forces = stepper.pair_forces();
-    std::vector<double> coordination(p.size(), 0.0), bond_count(p.size(), 0.0);
+    std::vector<double> coordination, bond_count;
     std::vector<std::vector<ContactBytes>> contacts(processes);
-    list.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
-      // As VtkFrames::write: the image of j is formed as a point first.
-      const Eigen::Vector3d first(p.x[i], p.y[i], p.z[i]);
-      const Eigen::Vector3d second = Eigen::Vector3d(p.x[j], p.y[j], p.z[j]) + list.shift(k);
-      const Eigen::Vector3d d = second - first;
-      const double overlap = p.radius[i] + p.radius[j] - d.norm();
-      if (overlap <= 0.0) return;
-      const bool bonded = forces.bonded[k] != 0;
-      coordination[i] += 1.0;
-      coordination[j] += 1.0;
-      bond_count[i] += bonded ? 1.0 : 0.0;
-      bond_count[j] += bonded ? 1.0 : 0.0;
-      if (!counts(p.id[i])) return;  // the pair's smaller id leads it
-      const Eigen::Vector3d force(forces.fx[k], forces.fy[k], forces.fz[k]);
-      ContactBytes c{p.id[i], p.id[j], {}, {}, {}, overlap, force.dot(d.normalized()), bonded};
-      for (int a = 0; a < 3; ++a) {
-        c.first[a] = first[a];
-        c.second[a] = second[a];
-        c.force[a] = force[a];
-      }
-      contacts[piece_of(p.id[i])].push_back(c);
-    });
+    frame_contacts(scene, stepper, coordination, bond_count,
+                   [&](std::size_t i, const ContactRecord& r) {
+                     if (!counts(p.id[i])) return;  // the pair's smaller id leads it
+                     ContactBytes c{};              // zeroed: its padding travels too
+                     c.id_i = r.id_i;
+                     c.id_j = r.id_j;
+                     for (int a = 0; a < 3; ++a) {
+                       c.first[a] = r.first_position[a];
+                       c.second[a] = r.second_position[a];
+                       c.force[a] = r.force[a];
+                     }
+                     c.overlap = r.overlap;
+                     c.normal_force = r.normal_force;
+                     c.bonded = r.bonded ? 1 : 0;
+                     contacts[piece_of(r.id_i)].push_back(c);
+                   });
     std::vector<std::vector<char>> records(processes);
     std::vector<std::vector<double>> derived(processes);  // coordination, bond count
     for (std::size_t i = 0; i < p.size(); ++i) {

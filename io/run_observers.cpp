@@ -277,22 +277,14 @@ void VtkFrames::interrupted(const Simulation& simulation, const Interruption& wh
   }
 }
 
-void VtkFrames::write(const Scene& scene, const Stepper& stepper) {
-  describe(scene);
+void frame_contacts(const Scene& scene, const Stepper& stepper, std::vector<double>& coordination,
+                    std::vector<double>& bond_count,
+                    const std::function<void(std::size_t, const ContactRecord&)>& contact) {
   const Particles& p = scene.particles;
   const NeighborList& list = stepper.neighbors();
   const PairForces& forces = stepper.pair_forces();
-  coordination_.assign(p.size(), 0.0);
-  bond_count_.assign(p.size(), 0.0);
-  diameter_.resize(p.size());
-  for (std::size_t i = 0; i < p.size(); ++i) diameter_[i] = 2.0 * p.radius[i];
-  std::vector<BoundaryLoadRecord> loads;
-  const std::vector<BoundaryLoad> totals = stepper.boundary_loads();
-  for (std::size_t b = 0; b < totals.size(); ++b) {
-    loads.push_back({scene.boundaries[b].name, totals[b].force, totals[b].moment});
-  }
-  writer_.set_boundary_loads(std::move(loads));
-  contacts_.clear();
+  coordination.assign(p.size(), 0.0);
+  bond_count.assign(p.size(), 0.0);
   list.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
     // The end points are written to the file: the image of j is formed as a point first.
     const Eigen::Vector3d first(p.x[i], p.y[i], p.z[i]);
@@ -302,13 +294,29 @@ void VtkFrames::write(const Scene& scene, const Stepper& stepper) {
     if (overlap <= 0.0) return;
     const Eigen::Vector3d force(forces.fx[k], forces.fy[k], forces.fz[k]);
     const bool bonded = forces.bonded[k] != 0;
-    contacts_.push_back(
-        {p.id[i], p.id[j], first, second, overlap, force.dot(d.normalized()), bonded, force});
-    coordination_[i] += 1.0;
-    coordination_[j] += 1.0;
-    bond_count_[i] += bonded ? 1.0 : 0.0;
-    bond_count_[j] += bonded ? 1.0 : 0.0;
+    contact(i,
+            {p.id[i], p.id[j], first, second, overlap, force.dot(d.normalized()), bonded, force});
+    coordination[i] += 1.0;
+    coordination[j] += 1.0;
+    bond_count[i] += bonded ? 1.0 : 0.0;
+    bond_count[j] += bonded ? 1.0 : 0.0;
   });
+}
+
+void VtkFrames::write(const Scene& scene, const Stepper& stepper) {
+  describe(scene);
+  const Particles& p = scene.particles;
+  diameter_.resize(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) diameter_[i] = 2.0 * p.radius[i];
+  std::vector<BoundaryLoadRecord> loads;
+  const std::vector<BoundaryLoad> totals = stepper.boundary_loads();
+  for (std::size_t b = 0; b < totals.size(); ++b) {
+    loads.push_back({scene.boundaries[b].name, totals[b].force, totals[b].moment});
+  }
+  writer_.set_boundary_loads(std::move(loads));
+  contacts_.clear();
+  frame_contacts(scene, stepper, coordination_, bond_count_,
+                 [&](std::size_t, const ContactRecord& record) { contacts_.push_back(record); });
   // By ids (id_i < id_j: each pair is seen from its smaller id), not in the storage order.
   std::sort(contacts_.begin(), contacts_.end(), [](const ContactRecord& a, const ContactRecord& b) {
     return a.id_i != b.id_i ? a.id_i < b.id_i : a.id_j < b.id_j;

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -72,6 +73,13 @@ class LastGoodFile : public Observer {
   const History& history_;
   std::fstream scratch_;  ///< open, unlinked
 };
+
+/// What a VTK frame derives from @p stepper's last force evaluation of @p scene: each particle's
+/// coordination and bond count (pairs at positive overlap, bonded ones), and each such pair as a
+/// record, seen from its smaller id, passed to @p contact with the row of that particle.
+void frame_contacts(const Scene& scene, const Stepper& stepper, std::vector<double>& coordination,
+                    std::vector<double>& bond_count,
+                    const std::function<void(std::size_t, const ContactRecord&)>& contact);
 
 /// VTK frames (particles with coordination and bond count, contacts, walls, tools) at step 0,
 /// every @p every steps and at the end, plus one at a stop request off that grid (a restart drops

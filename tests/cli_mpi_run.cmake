@@ -17,7 +17,7 @@
 #   leaving    the migration stress test with z not periodic and domain.remove_outside: 139 of
 #              the 500 spheres leave through the z faces and are removed (counted, with their
 #              mass, in history.csv).
-#   laser      cases/laser_sintering_ci.yaml with its beam on from 50 us to the end at 150 us,
+#   laser      cases/laser_sintering_ci.yaml with its beam on from 50 us to the end at 100 us,
 #              over the falling powder: the processes agree on the beam's columns (each column's
 #              highest particle over all of them), so each particle absorbs what it absorbs in one
 #              process; VTK frames compared as the pour's.
@@ -50,8 +50,8 @@ set(migration_options)
 set(leaving_case ${TEST_CASES}/migration_stress.yaml)
 set(leaving_options --set domain.periodic.2=false --set domain.remove_outside=true)
 set(laser_case ${CASES}/laser_sintering_ci.yaml)
-set(laser_options --set laser.start_time=0.00005 --set time.end=0.00015
-                  --set output.vtk_interval=0.00005 --set output.checkpoint_interval=0.0001)
+set(laser_options --set laser.start_time=0.00005 --set time.end=0.0001
+                  --set output.vtk_interval=0.00005 --set output.checkpoint_interval=0.00005)
 set(drum_case ${CASES}/rotating_drum_ci.yaml)
 set(drum_options --set time.end=0.04 --set output.checkpoint_interval=0.02)
 set(outputs history.csv final_state.csv last_good_state.csv checkpoint.bin clusters.csv layer.csv
