@@ -464,7 +464,7 @@ class DistributedRun {
     for (const SlipRecord& s : state.slips) {
       if (part_.owns(s.first_id)) slips.push_back(s);
     }
-    const std::vector<char> all_records = gathered(records, true);
+    const std::vector<char> all_records = gathered(std::move(records), true);
     const std::vector<double> all_positions =
         values_of<double>(gathered(bytes_of(build_positions), true));
     std::vector<SlipRecord> all_slips = values_of<SlipRecord>(gathered(bytes_of(slips), true));
@@ -794,7 +794,7 @@ class DistributedRun {
     for (const SlipRecord& s : mine.slips) {
       if (part_.owns(s.first_id)) slips.push_back(s);
     }
-    const Particles all = particles_from(gathered(records));
+    const Particles all = particles_from(gathered(std::move(records)));
     StepperState state =
         redistribution_state(mine, all, values_of<SlipRecord>(gathered(bytes_of(slips))));
     ++state.list.builds;  // the step's build
