@@ -195,17 +195,18 @@ void splat_tops(const double* z, const double* radius, const std::int64_t* id, d
 /// no particle is over it.
 void agree_on_tops(const std::int64_t* id, const LaserAgreement& agreement, LaserScratch& scratch) {
   const std::size_t count = scratch.top.size();
-  std::vector<double> top = scratch.top;
-  std::vector<std::int64_t> top_id(count, std::numeric_limits<std::int64_t>::max());
-  for (std::size_t c = 0; c < count; ++c) {
-    if (scratch.owner[c] != kNoOwner) top_id[c] = id[scratch.candidates[scratch.owner[c]].index];
-  }
-  const std::vector<std::int64_t> mine = top_id;
+  const auto own_id = [&](std::size_t c) {
+    return scratch.owner[c] == kNoOwner ? std::numeric_limits<std::int64_t>::max()
+                                        : id[scratch.candidates[scratch.owner[c]].index];
+  };
+  std::vector<double> top = scratch.top;  // scratch.top keeps this process's own
+  std::vector<std::int64_t> top_id(count);
+  for (std::size_t c = 0; c < count; ++c) top_id[c] = own_id(c);
   agreement.highest_tops(top, top_id);
   for (std::size_t c = 0; c < count; ++c) {
     if (top[c] == -std::numeric_limits<double>::infinity()) {
       scratch.owner[c] = kNoOwner;
-    } else if (scratch.owner[c] == kNoOwner || top[c] != scratch.top[c] || top_id[c] != mine[c]) {
+    } else if (scratch.owner[c] == kNoOwner || top[c] != scratch.top[c] || top_id[c] != own_id(c)) {
       scratch.owner[c] = kElsewhere;
     }
   }
