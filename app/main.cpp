@@ -434,6 +434,20 @@ int thread_limit() {
   return 4 * std::max(hardware, 1);
 }
 
+/// Processes of this MPI job on this machine (1 outside one), set by main.
+int g_local_ranks = 1;
+
+/// The threads a process takes when neither --threads nor OMP_NUM_THREADS says: every core it
+/// may run on, shared with the other processes of its MPI job on this machine when the launcher
+/// did not bind it (`mpirun -np 2` on 2 cores: 1 each; two teams of 2 would take turns on the
+/// cores, each spinning while the other works, 25 times slower measured).
+int default_threads() {
+  const int hardware = std::max(static_cast<int>(std::thread::hardware_concurrency()), 1);
+  const int allowed = omp_get_num_procs();  // the cores of this process's affinity mask
+  if (g_local_ranks <= 1 || allowed < hardware) return std::max(allowed, 1);  // bound: its cores
+  return std::max(hardware / g_local_ranks, 1);
+}
+
 /// Set the OpenMP team size from --threads, or check the one OMP_NUM_THREADS gave.
 void set_threads(const std::optional<int>& requested) {
   const int limit = thread_limit();
@@ -446,6 +460,8 @@ void set_threads(const std::optional<int>& requested) {
                        limit_text);
     }
     omp_set_num_threads(*requested);
+  } else if (std::getenv("OMP_NUM_THREADS") == nullptr) {
+    omp_set_num_threads(default_threads());
   } else if (omp_get_max_threads() > limit) {
     throw UsageError("OMP_NUM_THREADS asks for " + std::to_string(omp_get_max_threads()) +
                      " threads, above the limit of " + limit_text + "; lower it or pass --threads");
@@ -631,7 +647,9 @@ int run_command_line(int argc, char** argv) {
   auto* run_cmd = app.add_subcommand(
       "run", "Run a case; without a case file, the built-in powder-bed packing case");
   run_cmd->add_option("case", run.case_path, "Case file (YAML)");
-  run_cmd->add_option("--threads", run.threads, "OpenMP threads (default: OMP_NUM_THREADS or all)");
+  run_cmd->add_option("--threads", run.threads,
+                      "OpenMP threads (default: OMP_NUM_THREADS, or every core, shared by the MPI "
+                      "processes on a machine)");
   run_cmd->add_option("--simd", run.simd,
                       "SIMD target of the pair pass: auto (default), scalar, sse4, avx2, avx512");
   run_cmd->add_option("--output", run.output, "Output directory (default: output.directory)");
@@ -695,6 +713,10 @@ int main(int argc, char** argv) {
     int provided = 0;  // only the main thread calls MPI
     MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
     MPI_Comm_rank(MPI_COMM_WORLD, &g_rank);
+    MPI_Comm node;  // the processes sharing this machine's cores
+    MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
+    MPI_Comm_size(node, &g_local_ranks);
+    MPI_Comm_free(&node);
     g_distributed = true;
   }
 #endif

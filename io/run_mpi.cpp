@@ -10,8 +10,11 @@
 #include <cstring>
 #include <exception>
 #include <filesystem>
+#include <fstream>
+#include <iostream>
 #include <limits>
 #include <memory>
+#include <numeric>
 #include <optional>
 #include <ostream>
 #include <span>
@@ -32,6 +35,7 @@
 #include "solver/driver/run_analysis.hpp"
 #include "solver/driver/simulation.hpp"
 #include "solver/engine/exact_sum.hpp"
+#include "solver/engine/particle_stream.hpp"
 #include "solver/engine/scene.hpp"
 #include "solver/engine/stepper.hpp"
 #include "solver/parallel/decomposition.hpp"
@@ -40,14 +44,20 @@
 
 namespace bondem {
 
-std::string distributed_run_limits(const Case& description) {
-  const std::string prefix = description.source + ": ";
-  const std::string later = " is not supported under mpirun yet (issue 18): run without mpirun";
-  if (!description.streams.empty()) return prefix + "'streams' (insertion during the run)" + later;
-  return "";
-}
-
 namespace {
+
+/// Under BONDEM_MPI_PROFILE, this process's resident and peak memory at @p where, on stderr.
+void note_memory(const char* where) {
+  if (std::getenv("BONDEM_MPI_PROFILE") == nullptr) return;
+  std::ifstream status("/proc/self/status");
+  std::string line, rss, peak;
+  while (std::getline(status, line)) {
+    if (line.rfind("VmRSS:", 0) == 0) rss = line.substr(6);
+    if (line.rfind("VmHWM:", 0) == 0) peak = line.substr(6);
+  }
+  std::cerr << "bondem: process " << world_rank() << " " << where << ": resident" << rss << ", peak"
+            << peak << "\n";
+}
 
 /// The kinds of error that every process rethrows when one throws it.
 enum class ErrorKind : int { kNone, kCase, kBlowUp, kInterrupted, kInvalidArgument, kOther };
@@ -199,6 +209,17 @@ class PhaseTimer {
   std::array<double, static_cast<std::size_t>(Phase::kCount)> seconds_{};
 };
 
+/// Wraps the positions of @p p into @p domain along its periodic axes, as a list build does:
+/// before particles are handed to the owners of their positions.
+void wrap_periodic_positions(Particles& p, const Domain& domain) {
+  const Eigen::Vector3d length = domain.length();
+  for (int a = 0; a < 3; ++a) {
+    if (!domain.periodic[a]) continue;
+    StaggeredVector<double>& coordinate = a == 0 ? p.x : (a == 1 ? p.y : p.z);
+    for (double& c : coordinate) c = wrap_periodic(c, domain.min[a], length[a]);
+  }
+}
+
 /// A contact of a VTK frame as it travels between processes (ContactRecord, flat).
 struct ContactBytes {
   std::int64_t id_i, id_j;
@@ -220,9 +241,7 @@ class PieceFrames {
               std::vector<std::string> fields, const Scene& scene)
       : every_(every),
         writer_(directory.string()),
-        one_particle_(scene.particles.selected(scene.particles.size() > 0
-                                                   ? std::vector<std::uint32_t>{0}
-                                                   : std::vector<std::uint32_t>{})) {
+        one_particle_(particle_prototype(scene.particles)) {
     writer_.select_particle_arrays(std::move(fields));
     writer_.set_pieces(world_rank(), world_size());
     writer_.set_material_names(scene.material_names);
@@ -290,8 +309,8 @@ class PieceFrames {
 
     Particles piece = one_particle_;
     std::vector<char> one;
-    if (one_particle_.size() > 0) pack_particle(one_particle_, 0, one);
-    const std::size_t n = one.empty() ? 0 : arrived.size() / one.size();
+    pack_particle(one_particle_, 0, one);
+    const std::size_t n = arrived.size() / one.size();
     piece.permute(std::vector<std::uint32_t>(n, 0));
     for (std::size_t k = 0; k < n; ++k) unpack_particle(arrived.data() + k * one.size(), piece, k);
     coordination_.resize(n);
@@ -337,6 +356,20 @@ class PieceFrames {
   std::vector<double> coordination_, bond_count_, diameter_;
 };
 
+/// When a distributed run assembles the whole state on rank 0: during the run (each process
+/// keeps its part) or at its end (each frees its part once its share is packed).
+enum class Assembly { kMidRun, kAtEnd };
+
+/// Every process's @p mine, concatenated in rank order, on rank 0 (elsewhere: nothing); @p mine
+/// is freed as soon as its bytes are taken.
+template <class T>
+std::vector<T> gathered_values(std::vector<T> mine) {
+  std::vector<char> bytes = bytes_of(mine);
+  std::vector<T>().swap(mine);
+  bytes = gathered(std::move(bytes), true);
+  return values_of<T>(bytes);
+}
+
 /// A scene and a stepper holding the whole run's state: what rank 0 assembles from every
 /// process's particles to write a checkpoint and the end-of-run files with the observers of the
 /// run in one process.
@@ -360,7 +393,28 @@ class DistributedRun {
         bonds_formed_(state.bonds_formed),
         bonds_broken_(state.bonds_broken),
         removed_(state.removed) {
+    adopt_layout(all);
     distribute(all, state, costs);
+  }
+
+  /// Start a fresh run from this process's own particles @p owned (those @p decomposition gives
+  /// it, @p halo the width of the halos), each in @p frame (the run's scene without particles,
+  /// with its initial pairs): the processes trade their halos, and each part evaluates its
+  /// initial forces, counting its share; a stream's next particle takes @p next_particle_id.
+  DistributedRun(Scene frame, Particles owned, const Decomposition& decomposition, double halo,
+                 std::int64_t next_particle_id)
+      : frame_(std::move(frame)),
+        decomposition_(decomposition),
+        halo_(halo),
+        thermal_(owned.thermal()) {
+    adopt_layout(owned);
+    const std::size_t count = owned.size();
+    take_part(std::move(owned), count, {}, std::nullopt, next_particle_id);
+    frame_.initial_pairs = std::vector<SlipRecord>{};  // the parts' fresh steppers took them
+    contacts_ = summed(part_.stepper->contacts());
+    bonds_formed_ = part_.stepper->bonds_formed();
+    MPI_Allreduce(MPI_IN_PLACE, &bonds_formed_, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
+    load_sums_ = summed(part_.stepper->boundary_load_sums());
   }
 
   /// One step: the opening kicks and the drift; then either the ghosts' motion from their
@@ -375,10 +429,14 @@ class DistributedRun {
     MPI_Allreduce(MPI_IN_PLACE, local, 2, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
     timer_.lap(Phase::kAgree);
     const double half_skin = 0.5 * part_.scene->skin;
-    if (local[0] > half_skin * half_skin) {
-      wrap_periodic_positions();
+    // As in one process, an insertion rebuilds the list (a collective: every process agrees).
+    const bool inserted = part_.stepper->streams_due() && insert_from_streams();
+    if (local[0] > half_skin * half_skin || inserted) {
+      wrap_periodic_positions(part_.scene->particles, part_.scene->domain);
+      wrap_periodic_positions(arriving_, part_.scene->domain);
       mark_outside();
       if (!migrate()) redistribute();
+      arriving_ = Particles{};
       timer_.lap(Phase::kRedistribute);
     } else {
       refresh_ghosts();
@@ -441,6 +499,10 @@ class DistributedRun {
                     : ambient;
       t.laser_energy = stepper.laser_energy();
     }
+    for (const ParticleTally& stream : stepper.streams()) {  // the same on every process
+      t.inserted += stream.count;
+      t.inserted_mass += stream.mass;
+    }
     t.removed = removed_.count;
     t.removed_mass = removed_.mass;
     t.loads = boundary_loads_of(load_sums_);
@@ -449,31 +511,38 @@ class DistributedRun {
 
   /// On rank 0, the whole run's state assembled from every process's owned particles and pairs
   /// (each pair sent by the owner of its smaller id); elsewhere, nothing. Every process calls it.
-  WholeRun assemble() const {
-    const Particles& p = part_.scene->particles;
-    const StepperState state = part_.stepper->save_state();
+  WholeRun assemble(Assembly when = Assembly::kMidRun) {
+    StepperState state = part_.stepper->save_state(SavedArrays::kOmitted);
     std::vector<char> records;
     std::vector<double> build_positions;  // x0, y0, z0 of each owned particle
-    for (std::size_t k = 0; k < p.size(); ++k) {
-      if (!part_.owns(p.id[k])) continue;
-      pack_particle(p, k, records);
-      build_positions.insert(build_positions.end(),
-                             {state.list.x0[k], state.list.y0[k], state.list.z0[k]});
+    std::vector<SlipRecord> slips;        // of the pairs the owned particles lead
+    {
+      const Particles& p = part_.scene->particles;
+      const NeighborList& list = part_.stepper->neighbors();
+      std::vector<std::uint32_t> owned;
+      for (std::uint32_t k = 0; k < p.size(); ++k) {
+        if (!part_.owns(p.id[k])) continue;
+        owned.push_back(k);
+        pack_particle(p, k, records);
+        build_positions.insert(
+            build_positions.end(),
+            {list.build_positions(0)[k], list.build_positions(1)[k], list.build_positions(2)[k]});
+      }
+      part_.stepper->for_each_slip(owned, [&](const SlipRecord& s) { slips.push_back(s); });
     }
-    std::vector<SlipRecord> slips;
-    for (const SlipRecord& s : state.slips) {
-      if (part_.owns(s.first_id)) slips.push_back(s);
+    if (when == Assembly::kAtEnd) {  // rank 0 then holds the whole run, not its part besides
+      part_.stepper.reset();
+      part_.scene.reset();
     }
     const std::vector<char> all_records = gathered(std::move(records), true);
-    const std::vector<double> all_positions =
-        values_of<double>(gathered(bytes_of(build_positions), true));
-    std::vector<SlipRecord> all_slips = values_of<SlipRecord>(gathered(bytes_of(slips), true));
+    const std::vector<double> all_positions = gathered_values(std::move(build_positions));
+    std::vector<SlipRecord> all_slips = gathered_values(std::move(slips));
     if (world_rank() != 0) return {};
 
     Particles all = particles_from(all_records);
     const std::vector<std::uint32_t> by_id = all.order_by_id();
     all.permute(by_id);
-    StepperState whole = state;
+    StepperState whole = std::move(state);
     whole.contacts = contacts_;
     whole.bonds_formed = bonds_formed_;
     whole.bonds_broken = bonds_broken_;
@@ -506,7 +575,7 @@ class DistributedRun {
  private:
   /// @p records (packed particles of this run) as particles, in their order.
   Particles particles_from(const std::vector<char>& records) const {
-    const std::size_t n = record_bytes_ == 0 ? 0 : records.size() / record_bytes_;
+    const std::size_t n = records.size() / record_bytes_;
     Particles all = one_particle_;
     all.permute(std::vector<std::uint32_t>(n, 0));
     for (std::size_t k = 0; k < n; ++k) unpack_particle(records.data() + k * record_bytes_, all, k);
@@ -519,22 +588,17 @@ class DistributedRun {
                   const std::vector<double>& cost) {
     const int size = world_size();
     const int rank = world_rank();
-    if (all.size() > 0 && one_particle_.size() == 0) {
-      one_particle_ = all;
-      one_particle_.permute({0});
-      std::vector<char> one;
-      pack_particle(all, 0, one);
-      record_bytes_ = one.size();
-    }
     const Scene& probe = frame_;
-    const double halo = decomposition_halo(all, probe.skin);
+    // A stream may add particles larger than any present: the halo reaches the run's largest.
+    const double halo = std::max(decomposition_halo(all, probe.skin),
+                                 2.0 * probe.largest_radius + 2.0 * probe.skin);
     const Decomposition d = bisect(all.x, all.y, all.z, cost, all.id,
                                    Box{probe.domain.min, probe.domain.max}, size, halo);
     decomposition_ = d;
     halo_ = halo;
     part_.stepper.reset();  // before the scene it steps
     part_ = make_rank_part(frame_, d, rank, halo, all, state);
-    if (frame_.laser) part_.stepper->share_laser(laser_agreement());
+    adopt(*part_.stepper);
 
     // Where each particle of the part sits, by id.
     const Particles& p = part_.scene->particles;
@@ -572,17 +636,52 @@ class DistributedRun {
     }
   }
 
-  /// Wraps the positions into the domain along its periodic axes, as a list build does: before
-  /// a rebuild's migration, so that each particle goes to the owner of its wrapped position.
-  void wrap_periodic_positions() {
-    Particles& p = part_.scene->particles;
-    const Domain& domain = part_.scene->domain;
-    const Eigen::Vector3d length = domain.length();
-    for (int a = 0; a < 3; ++a) {
-      if (!domain.periodic[a]) continue;
-      StaggeredVector<double>& coordinate = a == 0 ? p.x : (a == 1 ? p.y : p.z);
-      for (double& c : coordinate) c = wrap_periodic(c, domain.min[a], length[a]);
+  /// The particles the streams owe at this step, inserted alike on every process into the
+  /// particles near the streams' regions gathered from every process (the only ones an insertion
+  /// tests against): arriving_, which the rebuild this forces hands to their owners. Returns
+  /// whether any was inserted. Every process calls it.
+  bool insert_from_streams() {
+    const Scene& scene = *part_.scene;
+    const Particles& p = scene.particles;
+    std::vector<std::uint8_t> near(p.size(), 0);
+    for (const ParticleStream& stream : scene.streams) {
+      for (const std::uint32_t k :
+           particles_near_stream(stream, scene.largest_radius, scene.domain, p)) {
+        near[k] = 1;
+      }
     }
+    std::vector<double> mine;  // x, y, z, radius of each owned particle near a stream
+    for (std::size_t k = 0; k < p.size(); ++k) {
+      if (near[k] != 0 && part_.owns(p.id[k])) {
+        mine.insert(mine.end(), {p.x[k], p.y[k], p.z[k], p.radius[k]});
+      }
+    }
+    const std::vector<double> every = values_of<double>(gathered(bytes_of(mine)));
+    Particles around = one_particle_.selected({});
+    const double at_rest[3] = {0.0, 0.0, 0.0};
+    for (std::size_t k = 0; k + 3 < every.size(); k += 4) {
+      around.add(-1, 0, every[k + 3], 0.0, &every[k], at_rest);  // only place and size count
+    }
+    const std::size_t present = around.size();
+    if (part_.stepper->insert_due_into(around) == 0) return false;
+    std::vector<std::uint32_t> added(around.size() - present);
+    std::iota(added.begin(), added.end(), static_cast<std::uint32_t>(present));
+    arriving_ = around.selected(added);
+    return true;
+  }
+
+  /// The fields of @p like's particles: what every particle record of the run carries.
+  void adopt_layout(const Particles& like) {
+    one_particle_ = particle_prototype(like);
+    std::vector<char> one;
+    pack_particle(one_particle_, 0, one);
+    record_bytes_ = one.size();
+  }
+
+  /// What a part's stepper leaves to the processes together: the laser's columns, insertion.
+  void adopt(Stepper& stepper) const {
+    if (frame_.laser) stepper.share_laser(laser_agreement());
+    stepper.insert_elsewhere();
   }
 
   /// With Domain::remove_outside, at a rebuild: marks the particles outside the domain, which
@@ -593,6 +692,7 @@ class DistributedRun {
     const Particles& p = part_.scene->particles;
     const Domain& domain = part_.scene->domain;
     outside_.assign(p.size(), 0);
+    arriving_outside_.assign(arriving_.size(), 0);
     if (!domain.remove_outside) return;
     ExactSum mass;
     std::int64_t count = 0;
@@ -602,6 +702,13 @@ class DistributedRun {
       if (!part_.owns(p.id[k])) continue;
       ++count;
       mass.add(p.mass[k]);
+    }
+    for (std::size_t k = 0; k < arriving_.size(); ++k) {  // every process holds them: 0 counts
+      if (!domain.outside({arriving_.x[k], arriving_.y[k], arriving_.z[k]})) continue;
+      arriving_outside_[k] = 1;
+      if (world_rank() != 0) continue;
+      ++count;
+      mass.add(arriving_.mass[k]);
     }
     MPI_Allreduce(MPI_IN_PLACE, &count, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
     const double removed_mass = summed(std::vector<ExactSum>{mass})[0].value();
@@ -666,10 +773,12 @@ class DistributedRun {
     const int rank = world_rank();
     const auto processes = static_cast<std::size_t>(size);
     const Particles& p = part_.scene->particles;
-    const std::vector<double> costs = stepping_costs(*part_.stepper);  // of the last list
     double load[2] = {0.0, 0.0};  // the most loaded process's, and the total
-    for (std::size_t k = 0; k < p.size(); ++k) {
-      if (part_.owns(p.id[k])) load[0] += costs[k];
+    {
+      const std::vector<double> costs = stepping_costs(*part_.stepper);  // of the last list
+      for (std::size_t k = 0; k < p.size(); ++k) {
+        if (part_.owns(p.id[k])) load[0] += costs[k];
+      }
     }
     load[1] = load[0];
     MPI_Allreduce(MPI_IN_PLACE, &load[0], 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
@@ -678,101 +787,168 @@ class DistributedRun {
     ++migrations_;
 
     // 1. Each owned particle to the owner of its position, with the pairs it leads.
-    std::vector<int> new_owner(p.size(), -1);
-    std::vector<std::uint32_t> kept;
-    std::vector<std::vector<char>> leaving(processes);
-    for (std::size_t k = 0; k < p.size(); ++k) {
-      if (!part_.owns(p.id[k]) || outside_[k] != 0) continue;  // outside: removed
-      new_owner[k] = decomposition_.owner(p.x[k], p.y[k], p.z[k]);
-      if (new_owner[k] == rank) {
-        kept.push_back(static_cast<std::uint32_t>(k));
-      } else {
-        pack_particle(p, k, leaving[static_cast<std::size_t>(new_owner[k])]);
-      }
-    }
+    Particles next;
     std::vector<SlipRecord> owned_slips;  // of the pairs the particles owned from now on lead
-    std::vector<std::vector<SlipRecord>> leaving_slips(processes);
-    for (std::uint32_t k = 0; k < p.size(); ++k) {
-      if (new_owner[k] < 0) continue;  // a ghost's pairs: its owner sends them
-      std::vector<SlipRecord>& to = new_owner[k] == rank
-                                        ? owned_slips
-                                        : leaving_slips[static_cast<std::size_t>(new_owner[k])];
-      part_.stepper->for_each_slip(std::span(&k, 1),
-                                   [&](const SlipRecord& slip) { to.push_back(slip); });
-    }
-    std::vector<std::int64_t> counts;
-    const std::vector<char> arrived = bondem::exchanged(leaving, counts);
-    const std::vector<SlipRecord> arrived_slips = exchanged(leaving_slips);
-    owned_slips.insert(owned_slips.end(), arrived_slips.begin(), arrived_slips.end());
-    Particles next = p.selected(kept);
-    const Particles newcomers = particles_from(arrived);
-    for (std::size_t k = 0; k < newcomers.size(); ++k) append_particle(newcomers, k, next);
+    {
+      std::vector<int> new_owner(p.size(), -1);
+      std::vector<std::uint32_t> kept;
+      std::vector<std::vector<char>> leaving(processes);
+      for (std::size_t k = 0; k < p.size(); ++k) {
+        if (!part_.owns(p.id[k]) || outside_[k] != 0) continue;  // outside: removed
+        new_owner[k] = decomposition_.owner(p.x[k], p.y[k], p.z[k]);
+        if (new_owner[k] == rank) {
+          kept.push_back(static_cast<std::uint32_t>(k));
+        } else {
+          pack_particle(p, k, leaving[static_cast<std::size_t>(new_owner[k])]);
+        }
+      }
+      std::vector<std::vector<SlipRecord>> leaving_slips(processes);
+      for (std::uint32_t k = 0; k < p.size(); ++k) {
+        if (new_owner[k] < 0) continue;  // a ghost's pairs: its owner sends them
+        std::vector<SlipRecord>& to = new_owner[k] == rank
+                                          ? owned_slips
+                                          : leaving_slips[static_cast<std::size_t>(new_owner[k])];
+        part_.stepper->for_each_slip(std::span(&k, 1),
+                                     [&](const SlipRecord& slip) { to.push_back(slip); });
+      }
+      std::vector<std::int64_t> counts;
+      const std::vector<char> arrived = bondem::exchanged(leaving, counts);
+      const std::vector<SlipRecord> arrived_slips = exchanged(leaving_slips);
+      owned_slips.insert(owned_slips.end(), arrived_slips.begin(), arrived_slips.end());
+      next = p.selected(kept);
+      const Particles newcomers = particles_from(arrived);
+      for (std::size_t k = 0; k < newcomers.size(); ++k) append_particle(newcomers, k, next);
+      for (std::size_t k = 0; k < arriving_.size(); ++k) {  // a stream's, every process holds them
+        if (arriving_outside_[k] == 0 &&
+            decomposition_.owner(arriving_.x[k], arriving_.y[k], arriving_.z[k]) == rank) {
+          append_particle(arriving_, k, next);
+        }
+      }
+    }  // what travelled is freed here
     const std::size_t owned = next.size();
 
-    // 2. Each process's particles in another's halo, whole, with the pairs they lead.
-    std::vector<std::pair<std::int64_t, std::uint32_t>> owned_index(owned);
-    for (std::size_t k = 0; k < owned; ++k) {
-      owned_index[k] = {next.id[k], static_cast<std::uint32_t>(k)};
-    }
-    std::sort(owned_index.begin(), owned_index.end());
-    std::vector<std::vector<std::uint32_t>> ghost_sends(processes);
-    std::vector<std::vector<char>> ghost_records(processes);
-    std::vector<std::vector<SlipRecord>> ghost_slips(processes);
-    for (int r = 0; r < size; ++r) {
-      if (r == rank) continue;
-      const auto ur = static_cast<std::size_t>(r);
-      ghost_sends[ur] =
-          subdomain_members(decomposition_, r, frame_.domain, halo_, next.x, next.y, next.z);
-      std::vector<std::uint8_t> sent(owned, 0);
-      for (const std::uint32_t k : ghost_sends[ur]) {
-        pack_particle(next, k, ghost_records[ur]);
-        sent[k] = 1;
-      }
-      for (const SlipRecord& slip : owned_slips) {
-        const std::uint32_t k =
-            std::lower_bound(owned_index.begin(), owned_index.end(), std::pair(slip.first_id, 0U))
-                ->second;
-        if (sent[k] != 0) ghost_slips[ur].push_back(slip);
-      }
-    }
-    const std::vector<char> ghosts_arrived = bondem::exchanged(ghost_records, counts);
-    const std::vector<SlipRecord> ghost_slips_arrived = exchanged(ghost_slips);
-    const Particles ghosts = particles_from(ghosts_arrived);
-    for (std::size_t k = 0; k < ghosts.size(); ++k) append_particle(ghosts, k, next);
-    // The ghost refresh: the same particles, in the same order, from the same owners.
-    sends_ = std::move(ghost_sends);
-    receives_.assign(processes, {});
-    auto at = static_cast<std::uint32_t>(owned);
-    for (std::size_t r = 0; r < processes; ++r) {
-      const std::size_t records = static_cast<std::size_t>(counts[r]) / record_bytes_;
-      for (std::size_t n = 0; n < records; ++n) receives_[r].push_back(at++);
-    }
-
-    // 3. The new part: its list from the positions of this rebuild (the step's build), the
-    // pairs' state by ids.
     StepperState state = part_.stepper->save_state(SavedArrays::kOmitted);
-    ++state.list.builds;
+    ++state.list.builds;  // the step's
     state.removed = removed_;
-    state.list.x0 = next.x;
-    state.list.y0 = next.y;
-    state.list.z0 = next.z;
-    state.slips = std::move(owned_slips);
-    state.slips.insert(state.slips.end(), ghost_slips_arrived.begin(), ghost_slips_arrived.end());
-    std::sort(state.slips.begin(), state.slips.end(), [](const SlipRecord& a, const SlipRecord& b) {
-      return std::pair(a.first_id, a.second_id) < std::pair(b.first_id, b.second_id);
-    });
+    part_.stepper.reset();  // the old part's memory, before the new one's
+    part_.scene.reset();
+    take_part(std::move(next), owned, std::move(owned_slips), std::move(state));
+    return true;
+  }
+
+  /// With the first @p owned particles of @p next this process's own from now on: sends every
+  /// other process its particles in their halos, whole, with the state of the pairs of
+  /// @p owned_slips they lead; appends theirs as ghosts; and steps the new part, restored from
+  /// @p state (a rebuild: its list built at these positions, the pairs' state by ids) or, without
+  /// one, fresh (the initial pairs of the frame, the initial forces), a stream's next particle
+  /// then taking @p next_particle_id.
+  void take_part(Particles next, std::size_t owned, std::vector<SlipRecord> owned_slips,
+                 std::optional<StepperState> state, std::int64_t next_particle_id = 0) {
+    const int size = world_size();
+    const int rank = world_rank();
+    const auto processes = static_cast<std::size_t>(size);
+    std::vector<SlipRecord> ghost_slips_arrived;
+    {  // Each process's particles in another's halo, whole, with the pairs they lead.
+      std::vector<std::int64_t> counts;
+      std::vector<std::pair<std::int64_t, std::uint32_t>> owned_index(owned);
+      for (std::size_t k = 0; k < owned; ++k) {
+        owned_index[k] = {next.id[k], static_cast<std::uint32_t>(k)};
+      }
+      std::sort(owned_index.begin(), owned_index.end());
+      std::vector<std::vector<std::uint32_t>> ghost_sends(processes);
+      std::vector<std::vector<char>> ghost_records(processes);
+      std::vector<std::vector<SlipRecord>> ghost_slips(processes);
+      for (int r = 0; r < size; ++r) {
+        if (r == rank) continue;
+        const auto ur = static_cast<std::size_t>(r);
+        ghost_sends[ur] =
+            subdomain_members(decomposition_, r, frame_.domain, halo_, next.x, next.y, next.z);
+        std::vector<std::uint8_t> sent(owned, 0);
+        for (const std::uint32_t k : ghost_sends[ur]) {
+          pack_particle(next, k, ghost_records[ur]);
+          sent[k] = 1;
+        }
+        for (const SlipRecord& slip : owned_slips) {
+          const std::uint32_t k =
+              std::lower_bound(owned_index.begin(), owned_index.end(), std::pair(slip.first_id, 0U))
+                  ->second;
+          if (sent[k] != 0) ghost_slips[ur].push_back(slip);
+        }
+      }
+      const std::vector<char> ghosts_arrived = bondem::exchanged(ghost_records, counts);
+      ghost_slips_arrived = exchanged(ghost_slips);
+      const Particles ghosts = particles_from(ghosts_arrived);
+      for (std::size_t k = 0; k < ghosts.size(); ++k) append_particle(ghosts, k, next);
+      // The ghost refresh: the same particles, in the same order, from the same owners.
+      sends_ = std::move(ghost_sends);
+      receives_.assign(processes, {});
+      auto at = static_cast<std::uint32_t>(owned);
+      for (std::size_t r = 0; r < processes; ++r) {
+        const std::size_t records = static_cast<std::size_t>(counts[r]) / record_bytes_;
+        for (std::size_t n = 0; n < records; ++n) receives_[r].push_back(at++);
+      }
+    }  // what travelled is freed before the new part's list is built
+
+    // The new part.
+    if (state) {
+      state->list.x0 = next.x;
+      state->list.y0 = next.y;
+      state->list.z0 = next.z;
+      state->slips = std::move(owned_slips);
+      state->slips.insert(state->slips.end(), ghost_slips_arrived.begin(),
+                          ghost_slips_arrived.end());
+      std::sort(state->slips.begin(), state->slips.end(),
+                [](const SlipRecord& a, const SlipRecord& b) {
+                  return std::pair(a.first_id, a.second_id) < std::pair(b.first_id, b.second_id);
+                });
+    }
     RankPart fresh;
     fresh.scene = std::make_unique<Scene>(frame_);
     fresh.scene->particles = std::move(next);
     const auto& ids = fresh.scene->particles.id;
     fresh.owned_ids.assign(ids.begin(), ids.begin() + static_cast<std::ptrdiff_t>(owned));
     std::sort(fresh.owned_ids.begin(), fresh.owned_ids.end());
-    fresh.stepper = std::make_unique<Stepper>(*fresh.scene, std::move(state));
-    fresh.stepper->count_only(fresh.owned_ids);
-    if (frame_.laser) fresh.stepper->share_laser(laser_agreement());
+    if (state) {
+      fresh.stepper = std::make_unique<Stepper>(*fresh.scene, std::move(*state));
+      fresh.stepper->count_only(fresh.owned_ids);
+    } else {
+      // A fresh list build may reorder the particles (Scene::reorder_interval): the refresh
+      // follows them by id.
+      const auto ids_of = [&](const std::vector<std::vector<std::uint32_t>>& rows) {
+        std::vector<std::vector<std::int64_t>> by_process(rows.size());
+        for (std::size_t r = 0; r < rows.size(); ++r) {
+          for (const std::uint32_t k : rows[r]) {
+            by_process[r].push_back(fresh.scene->particles.id[k]);
+          }
+        }
+        return by_process;
+      };
+      const std::vector<std::vector<std::int64_t>> send_ids = ids_of(sends_);
+      const std::vector<std::vector<std::int64_t>> receive_ids = ids_of(receives_);
+      fresh.stepper =
+          std::make_unique<Stepper>(*fresh.scene, RunShare{fresh.owned_ids, next_particle_id});
+      const Particles& p = fresh.scene->particles;
+      std::vector<std::pair<std::int64_t, std::uint32_t>> index_of(p.size());
+      for (std::size_t k = 0; k < p.size(); ++k) {
+        index_of[k] = {p.id[k], static_cast<std::uint32_t>(k)};
+      }
+      std::sort(index_of.begin(), index_of.end());
+      const auto rows_of = [&](const std::vector<std::vector<std::int64_t>>& by_process,
+                               std::vector<std::vector<std::uint32_t>>& rows) {
+        for (std::size_t r = 0; r < by_process.size(); ++r) {
+          for (std::size_t n = 0; n < by_process[r].size(); ++n) {
+            rows[r][n] = std::lower_bound(index_of.begin(), index_of.end(),
+                                          std::pair(by_process[r][n], std::uint32_t{0}))
+                             ->second;
+          }
+        }
+      };
+      rows_of(send_ids, sends_);
+      rows_of(receive_ids, receives_);
+    }
+    adopt(*fresh.stepper);
     part_.stepper.reset();  // before the scene it steps
     part_ = std::move(fresh);
-    return true;
   }
 
   /// At a rebuild that would unbalance the cuts: every process's owned particles and pairs' state,
@@ -787,6 +963,13 @@ class DistributedRun {
       if (!part_.owns(p.id[k]) || outside_[k] != 0) continue;  // outside: removed
       pack_particle(p, k, records);
       owned_costs.push_back(costs[k]);
+    }
+    if (world_rank() == 0) {  // a stream's new particles, which every process holds
+      for (std::size_t k = 0; k < arriving_.size(); ++k) {
+        if (arriving_outside_[k] != 0) continue;
+        pack_particle(arriving_, k, records);
+        owned_costs.push_back(1.0);
+      }
     }
     StepperState mine = part_.stepper->save_state();
     mine.removed = removed_;
@@ -819,10 +1002,65 @@ class DistributedRun {
   std::int64_t bonds_formed_ = 0, bonds_broken_ = 0;
   ParticleTally removed_;              ///< for leaving the domain, all processes together
   std::vector<std::uint8_t> outside_;  ///< per particle of the part, at a rebuild: removed
+  Particles arriving_;  ///< a stream's particles of this step, on every process, until the rebuild
+  std::vector<std::uint8_t> arriving_outside_;  ///< per particle of arriving_: removed
   std::int64_t redistributions_ = 0;
   std::int64_t migrations_ = 0;
   PhaseTimer timer_;
 };
+
+/// A fresh run's start with no process holding the whole scene: every process bisects the
+/// case's particles by count (each weighing 1: no list has measured their cost yet, and the first
+/// rebuild moves the cuts if the measured cost is off balance), builds the scene of the particles
+/// it owns and frees the case's particle list; the parts then trade halos and evaluate their
+/// initial forces.
+std::optional<DistributedRun> start_fresh(Case& description) {
+  Scene frame = build_scene(description, {});  // the values derived from every particle
+  const std::vector<ParticleSpec>& specs = description.particles;
+  const std::size_t n = specs.size();
+  // The halo reaches the largest radius of the run, streams' included.
+  const double halo = 2.0 * frame.largest_radius + 2.0 * frame.skin;
+  std::vector<std::uint32_t> mine;
+  Decomposition decomposition;
+  {
+    Particles where;  // the positions only, wrapped as the parts' will be
+    where.x.resize(n);
+    where.y.resize(n);
+    where.z.resize(n);
+    std::vector<double> cost(n, 1.0);
+    std::vector<std::int64_t> order(n);  // ties between equal coordinates go by list position
+    for (std::size_t i = 0; i < n; ++i) {
+      where.x[i] = specs[i].position.x();
+      where.y[i] = specs[i].position.y();
+      where.z[i] = specs[i].position.z();
+      order[i] = static_cast<std::int64_t>(i);
+    }
+    wrap_periodic_positions(where, frame.domain);
+    const auto& x = where.x;
+    const auto& y = where.y;
+    const auto& z = where.z;
+    decomposition =
+        bisect(x, y, z, cost, order, Box{frame.domain.min, frame.domain.max}, world_size(), halo);
+    for (std::size_t i = 0; i < n; ++i) {
+      if (decomposition.owner(x[i], y[i], z[i]) == world_rank()) {
+        mine.push_back(static_cast<std::uint32_t>(i));
+      }
+    }
+  }
+  // The id after the largest (as Stepper(scene) finds it): particles without an id take the
+  // next free ones (build_scene).
+  std::int64_t next_id = 0;
+  for (const ParticleSpec& spec : specs) next_id = std::max(next_id, spec.id + 1);
+  for (const ParticleSpec& spec : specs) next_id += spec.id < 0 ? 1 : 0;
+  Scene own = build_scene(description, mine);
+  std::vector<ParticleSpec>().swap(description.particles);
+  Particles owned = std::move(own.particles);
+  wrap_periodic_positions(owned, frame.domain);
+  own.particles = owned.selected({});  // the frame keeps the layout, no particle
+  std::optional<DistributedRun> run;
+  run.emplace(std::move(own), std::move(owned), decomposition, halo, next_id);
+  return run;
+}
 
 }  // namespace
 
@@ -836,27 +1074,28 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
   std::string history_text;
   const bool vtk = description.vtk_interval > 0.0;
   together([&] {
-    if (const std::string limit = distributed_run_limits(description); !limit.empty()) {
-      throw CaseError(limit);
-    }
     plan = plan_run(description, options);
+    if (!plan.restarting) {
+      scene.emplace(build_scene(description, {}));  // no particle: each process builds its own
+      check_output_fields(description, *scene, history_text);
+      return;
+    }
     scene.emplace(build_scene(description));
     // As in run_case: the scene holds the particles, the plan what was derived from them.
     std::vector<ParticleSpec>().swap(description.particles);
     std::vector<SlipRecord>().swap(description.initial_pairs);
-    if (plan.restarting) {
-      Checkpoint restored = read_fitting_checkpoint(description, options, plan, *scene);
-      plan.first_step = restored.stepper.step;
-      scene->particles = std::move(restored.particles);
-      // As in run_case: displacements from here when the interrupted run did not track them.
-      if (vtk && !scene->particles.displacement_tracked) scene->particles.track_displacement();
-      history_text = history_without_end_row(restored.history, restored.stepper.step,
-                                             restored.stepper.time, plan.history_every);
-      state = std::move(restored.stepper);
-      costs.assign(scene->particles.size(), 1.0);
-    }
+    Checkpoint restored = read_fitting_checkpoint(description, options, plan, *scene);
+    plan.first_step = restored.stepper.step;
+    scene->particles = std::move(restored.particles);
+    // As in run_case: displacements from here when the interrupted run did not track them.
+    if (vtk && !scene->particles.displacement_tracked) scene->particles.track_displacement();
+    history_text = history_without_end_row(restored.history, restored.stepper.step,
+                                           restored.stepper.time, plan.history_every);
+    state = std::move(restored.stepper);
+    costs.assign(scene->particles.size(), 1.0);
     check_output_fields(description, *scene, history_text);
   });
+  note_memory("scene built");
   together([&] {
     if (root) prepare_output_directory(description, options, plan);
   });
@@ -867,41 +1106,27 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
       if (plan.restarting) frames->resume(*scene, state.step, description.time_step);
     });
   }
-  if (!plan.restarting) {
-    // The initial forces of the whole scene, as the run in one process evaluates them.
-    std::optional<Stepper> whole;
-    together([&] {
-      whole.emplace(*scene);
-      state = whole->save_state();
-      first_totals = run_totals(*scene, *whole);
-      costs = stepping_costs(*whole);
-    });
-    // Every process holds the whole run here: each writes its piece of frame 0 alone.
-    const auto size = static_cast<std::int64_t>(world_size());
-    const std::int64_t rank = world_rank();
-    if (frames) {
-      frames->write(
-          *scene, *whole, [&](std::int64_t id) { return id % size == rank; }, first_totals.loads);
-    }
-    if (plan.state_every > 0) {
-      together([&] {
-        if (root)
-          StateFiles(plan.directory, plan.state_every)
-              .start(Simulation(*scene, *whole, plan.steps));
-      });
-    }
-  }
-
   std::optional<DistributedRun> run_part;
-  {
+  if (plan.restarting) {
     const Particles all = std::move(scene->particles);
     scene->particles = Particles{};
     scene->initial_pairs = std::vector<SlipRecord>{};
     run_part.emplace(std::move(*scene), all, state, costs);
+  } else {
+    // No process holds the whole scene: each builds its own particles, and the parts evaluate
+    // the initial forces (each owned particle's are the run in one process's).
+    scene.reset();
+    together([&] { run_part = start_fresh(description); });
   }  // each process now holds its part only
+  note_memory("distributed");
   DistributedRun& run = *run_part;
   scene.reset();
   state = StepperState{};
+  const auto owns = [&](std::int64_t id) { return run.part().owns(id); };
+  if (!plan.restarting) {
+    first_totals = run.totals();
+    if (frames) frames->write(*run.part().scene, *run.part().stepper, owns, run.loads());
+  }
 
   // Rank 0 writes the history, the checkpoints and the end-of-run files.
   std::optional<HistoryFile> history_file;
@@ -963,14 +1188,19 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
       if (plan.restarting) layers->resume(resumed_at);
     });
   }
-  const auto at_whole_run = [&](auto&& use) {
-    WholeRun whole = run.assemble();
+  const auto at_whole_run = [&](auto&& use, Assembly when = Assembly::kMidRun) {
+    WholeRun whole = run.assemble(when);
     together([&] {
       if (!root) return;
       Simulation simulation(*whole.scene, *whole.stepper, plan.steps);
       use(simulation);
     });
   };
+
+  if (!plan.restarting && plan.state_every > 0) {
+    at_whole_run(
+        [&](const Simulation& s) { StateFiles(plan.directory, plan.state_every).start(s); });
+  }
 
   const auto started = std::chrono::steady_clock::now();
   try {
@@ -979,14 +1209,14 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
       const bool stop_here = options.stop_requested != nullptr && *options.stop_requested != 0;
       const bool stop = run.step(stop_here);
       ++step;
+      if (step == plan.first_step + 1) note_memory("first step");
       const bool at_end = step == plan.steps;
       if (step % plan.history_every == 0 || at_end) {
         add_row(step, run.totals());
         together(keep_last_good);
       }
-      const auto owned = [&](std::int64_t id) { return run.part().owns(id); };
       if (frames && (step % frames->every() == 0 || at_end)) {
-        frames->write(*run.part().scene, *run.part().stepper, owned, run.loads());
+        frames->write(*run.part().scene, *run.part().stepper, owns, run.loads());
       }
       const bool state_due = plan.state_every > 0 && step % plan.state_every == 0;
       const std::size_t layers_due =
@@ -1009,7 +1239,7 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
       if (stop && !at_end) {
         // As VtkFrames: a frame of the state reached, off the grid (a restart drops it).
         if (frames && step % frames->every() != 0) {
-          frames->write(*run.part().scene, *run.part().stepper, owned, run.loads());
+          frames->write(*run.part().scene, *run.part().stepper, owns, run.loads());
         }
         at_whole_run([&](const Simulation& s) {
           const Interruption why{StopReason::kStopRequested, nullptr};
@@ -1061,19 +1291,23 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
   }
 
   RunResult result;
-  at_whole_run([&](const Simulation& s) {
-    progress.finish(s);
-    checkpoint.finish(s);
-    RunAnalysis analysis(description);
-    analysis.finish(s);
-    EndOfRunFiles(plan.directory, analysis).finish(s);
-    RunEnd end;
-    end.finished = true;
-    end.first_step = plan.first_step;
-    end.step = plan.steps;
-    end.loop_seconds = loop_seconds;
-    result = collect_result(end, s, *analysis.figures());
-  });
+  note_memory("steps done");
+  at_whole_run(
+      [&](const Simulation& s) {
+        progress.finish(s);
+        checkpoint.finish(s);
+        RunAnalysis analysis(description);
+        analysis.finish(s);
+        EndOfRunFiles(plan.directory, analysis).finish(s);
+        RunEnd end;
+        end.finished = true;
+        end.first_step = plan.first_step;
+        end.step = plan.steps;
+        end.loop_seconds = loop_seconds;
+        result = collect_result(end, s, *analysis.figures());
+      },
+      Assembly::kAtEnd);
+  note_memory("end files written");
   if (!root) {
     result.steps = plan.steps - plan.first_step;
     result.particles = run.part().owned_ids.size();

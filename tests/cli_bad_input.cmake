@@ -53,23 +53,22 @@ expect_bad_input("'bond.criterion': needs a thermal: block" run ${CASES}/paper_5
                  --set bond.criterion=temperature --output ${WORK}/run_criterion)
 expect_bad_input("--threads must be at least 1" run ${CASES}/powder_bed_packing_ci.yaml --quiet
                  --threads 0 --output ${WORK}/run_threads)
-# Under mpirun, a case with what a distributed run cannot do yet (insertion during the run) is
-# refused before anything is written: exit 2, the reason printed once (by rank 0), not once a
-# process.
+# Under mpirun, a bad case is refused before anything is written: exit 2, the reason printed
+# once (by rank 0), not once a process.
 find_program(MPIRUN mpirun)
 if(MPIRUN)
   # Open MPI refuses root without these (CI runs as root).
   set(ENV{OMPI_ALLOW_RUN_AS_ROOT} 1)
   set(ENV{OMPI_ALLOW_RUN_AS_ROOT_CONFIRM} 1)
   execute_process(COMMAND ${MPIRUN} --oversubscribe --bind-to none -np 2 ${BONDEM} run
-                          ${CASES}/powder_pouring_ci.yaml --quiet --output ${WORK}/run_mpirun
+                          ${WORK}/laser.yaml --quiet --output ${WORK}/run_mpirun
                   RESULT_VARIABLE status ERROR_VARIABLE err OUTPUT_VARIABLE out)
   if(NOT status EQUAL 2)
-    message(FATAL_ERROR "mpirun -np 2 bondem run with a stream: expected exit 2, got ${status}: "
+    message(FATAL_ERROR "mpirun -np 2 bondem run with a bad case: expected exit 2, got ${status}: "
                         "${err}")
   endif()
-  set(reason "'streams' (insertion during the run) is not supported under mpirun yet")
-  string(REGEX MATCHALL "is not supported under mpirun" reasons "${err}")
+  set(reason "laser.yaml:31:17: 'laser.absorptivity': must lie in [0, 1], got 1.5")
+  string(REGEX MATCHALL "'laser.absorptivity'" reasons "${err}")
   list(LENGTH reasons times)
   if(NOT times EQUAL 1)
     message(FATAL_ERROR "mpirun -np 2: expected '${reason}' once, got: ${err}")

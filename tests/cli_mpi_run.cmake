@@ -21,6 +21,10 @@
 #              over the falling powder: the processes agree on the beam's columns (each column's
 #              highest particle over all of them), so each particle absorbs what it absorbs in one
 #              process; VTK frames compared as the pour's.
+#   stream     cases/powder_pouring_ci.yaml, shortened to 20 ms: a stream fills an empty box,
+#              each process inserting alike from the particles near the stream's region gathered
+#              from all (history.csv counts them); VTK frames every 10 ms, compared as the pour's.
+#              Then stopped at 10 ms and continued from its checkpoint on another number.
 #   drum       cases/rotating_drum_ci.yaml, shortened to 40 ms: spheres falling into a rotating
 #              drum that is a triangle mesh (every process holds the whole mesh; 159 spheres touch
 #              it at the end, their contact history travelling with them); VTK frames at 0 and
@@ -52,6 +56,9 @@ set(leaving_options --set domain.periodic.2=false --set domain.remove_outside=tr
 set(laser_case ${CASES}/laser_sintering_ci.yaml)
 set(laser_options --set laser.start_time=0.00005 --set time.end=0.0001
                   --set output.vtk_interval=0.00005 --set output.checkpoint_interval=0.00005)
+set(stream_case ${CASES}/powder_pouring_ci.yaml)
+set(stream_options --set time.end=0.02 --set output.history_interval=0.001
+                   --set output.checkpoint_interval=0.01 --set output.vtk_interval=0.01)
 set(drum_case ${CASES}/rotating_drum_ci.yaml)
 set(drum_options --set time.end=0.04 --set output.checkpoint_interval=0.02)
 set(outputs history.csv final_state.csv last_good_state.csv checkpoint.bin clusters.csv layer.csv
@@ -96,7 +103,7 @@ function(expect_reference_bytes name directory what)
   endforeach()
 endfunction()
 
-foreach(name pour spreading thermal migration leaving laser drum)
+foreach(name pour spreading thermal migration leaving laser drum stream)
   set(directory ${WORK}/${name}_${PROCESSES})
   file(REMOVE_RECURSE ${directory})
   run_on(${PROCESSES} ${${name}_case} ${${name}_options} --output ${directory})
@@ -143,7 +150,7 @@ else()
 endif()
 
 if(NOT PROCESSES EQUAL 0)
-  foreach(name pour laser drum)  # the series with frames; the drum's show the mesh as tools
+  foreach(name pour laser drum stream)  # the series with frames; the drum's show the mesh as tools
     expect_reference_frames(${name} ${WORK}/${name}_${PROCESSES} "${name} on ${PROCESSES} processes")
   endforeach()
 
@@ -159,4 +166,14 @@ if(NOT PROCESSES EQUAL 0)
   expect_reference_bytes(pour ${directory}
                          "pour on ${PROCESSES} processes continued on ${next}")
   expect_reference_frames(pour ${directory} "pour on ${PROCESSES} processes continued on ${next}")
+
+  set(directory ${WORK}/stream_restarted)
+  file(REMOVE_RECURSE ${directory})
+  run_on(${PROCESSES} ${stream_case} ${stream_options} --set time.end=0.01 --output ${directory})
+  run_on(${next} ${stream_case} ${stream_options} --output ${directory}
+         --restart ${directory}/checkpoint.bin)
+  expect_reference_bytes(stream ${directory}
+                         "stream on ${PROCESSES} processes continued on ${next}")
+  expect_reference_frames(stream ${directory}
+                          "stream on ${PROCESSES} processes continued on ${next}")
 endif()

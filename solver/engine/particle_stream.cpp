@@ -64,6 +64,7 @@ class RegionGrid {
       if (!near) continue;
       centre_.push_back(u);
       radius_.push_back(p.radius[i]);
+      selected_.push_back(static_cast<std::uint32_t>(i));
     }
     // Coarser cells when the grid would outnumber its particles many times over.
     const double budget = 8.0 * static_cast<double>(centre_.size()) + 64.0;
@@ -91,6 +92,9 @@ class RegionGrid {
     std::vector<std::size_t> next(begin_.begin(), begin_.end() - 1);
     for (std::size_t k = 0; k < centre_.size(); ++k) members_[next[cell_of[k]]++] = k;
   }
+
+  /// The particles within reach, by index, in the order given.
+  const std::vector<std::uint32_t>& selected() const { return selected_; }
 
   /// Whether a sphere at @p centre (local coordinates) of radius @p r overlaps a particle.
   bool overlaps(const Eigen::Vector3d& centre, double r) const {
@@ -174,7 +178,41 @@ class RegionGrid {
   std::array<bool, 3> periodic_{}, wraps_{};
   std::vector<Eigen::Vector3d> centre_;
   std::vector<double> radius_;
+  std::vector<std::uint32_t> selected_;
   std::vector<std::size_t> begin_, members_;
+};
+
+/// The particles @p stream owes by @p time, having inserted @p progress so far: whether particle
+/// n (of mass @p mass) is due, by count or when its mass fits under the mass due, so that neither
+/// ever runs ahead of the rate.
+class DueParticles {
+ public:
+  DueParticles(const StreamInsertion& spec, double time, const ParticleTally& progress)
+      : spec_(spec), progress_(progress) {
+    elapsed_ = std::min(time, spec.end_time) - spec.start_time;
+    // The relative slack absorbs the rounding of the decimal times: 33 000/s from 0.0505 to
+    // 0.0565 s owes 198 particles, not floor(197.99999999999994). It is 0.01 particle at the
+    // most particles a stream may add (1e8), far below one.
+    constexpr double kCountSlack = 1e-10;
+    due_count_ = std::floor(spec.particle_rate * elapsed_ * (1.0 + kCountSlack));
+    due_mass_ = spec.mass_rate * elapsed_;
+  }
+  /// Whether the stream has started, and a count stream owes its next particle (known without
+  /// drawing its radius).
+  bool may_owe() const {
+    if (!(elapsed_ > 0.0)) return false;
+    return !(spec_.particle_rate > 0.0) || static_cast<double>(progress_.count) < due_count_;
+  }
+  /// Whether the next particle, of mass @p mass, is due.
+  bool operator()(double mass) const {
+    return spec_.particle_rate > 0.0 ? static_cast<double>(progress_.count) < due_count_
+                                     : progress_.mass + mass <= due_mass_;
+  }
+
+ private:
+  const StreamInsertion& spec_;
+  const ParticleTally& progress_;
+  double elapsed_ = 0.0, due_count_ = 0.0, due_mass_ = 0.0;
 };
 
 }  // namespace
@@ -184,30 +222,29 @@ double stream_radius(const ParticleStream& stream, std::size_t stream_index, std
   return draw_radius(stream.spec.radius, rng);
 }
 
+bool stream_due(const ParticleStream& stream, std::size_t stream_index, double time,
+                const ParticleTally& progress) {
+  const DueParticles due(stream.spec, time, progress);
+  // Most steps owe nothing: a count stream knows so without drawing the next radius.
+  if (!due.may_owe()) return false;
+  return due(sphere_mass(stream_radius(stream, stream_index, progress.count), stream.density));
+}
+
+std::vector<std::uint32_t> particles_near_stream(const ParticleStream& stream,
+                                                 double largest_radius, const Domain& domain,
+                                                 const Particles& particles) {
+  return RegionGrid(stream.spec.region, largest_radius, domain, particles).selected();
+}
+
 std::size_t insert_due_particles(const ParticleStream& stream, std::size_t stream_index,
                                  double time, std::int64_t step, const Domain& domain,
                                  double largest_radius, Particles& particles, std::int64_t& next_id,
                                  ParticleTally& progress, const std::vector<Boundary>& boundaries) {
+  if (!stream_due(stream, stream_index, time, progress)) return 0;  // most steps
   const StreamInsertion& spec = stream.spec;
-  const double elapsed = std::min(time, spec.end_time) - spec.start_time;
-  if (!(elapsed > 0.0)) return 0;
-  // The relative slack absorbs the rounding of the decimal times: 33 000/s from 0.0505 to
-  // 0.0565 s owes 198 particles, not floor(197.99999999999994). It is 0.01 particle at the most
-  // particles a stream may add (1e8), far below one.
-  constexpr double kCountSlack = 1e-10;
-  const double due_count = std::floor(spec.particle_rate * elapsed * (1.0 + kCountSlack));
-  // Most steps owe nothing: a count stream knows so without drawing the next radius.
-  if (spec.particle_rate > 0.0 && !(static_cast<double>(progress.count) < due_count)) return 0;
-  const double due_mass = spec.mass_rate * elapsed;
-  // Whether particle n (of mass @p mass) is due: by count, or when its mass fits under the mass
-  // due, so that neither ever runs ahead of the rate.
-  const auto due = [&](double mass) {
-    return spec.particle_rate > 0.0 ? static_cast<double>(progress.count) < due_count
-                                    : progress.mass + mass <= due_mass;
-  };
+  const DueParticles due(spec, time, progress);
   const double first_radius = stream_radius(stream, stream_index, progress.count);
   const auto mass_of = [&](double r) { return sphere_mass(r, stream.density); };
-  if (!due(mass_of(first_radius))) return 0;
 
   const RegionGrid grid(spec.region, largest_radius, domain, particles);
   std::vector<Eigen::Vector3d> placed;  // this call's particles, in local coordinates

@@ -34,6 +34,17 @@ struct ParticleStream {
 /// that waits for room keeps its size.
 double stream_radius(const ParticleStream& stream, std::size_t stream_index, std::int64_t n);
 
+/// Whether @p stream owes a particle by @p time, having inserted @p progress so far: whether
+/// insert_due_particles() would look for room at all (most steps it would not).
+bool stream_due(const ParticleStream& stream, std::size_t stream_index, double time,
+                const ParticleTally& progress);
+
+/// The particles of @p particles that insert_due_particles() tests new ones of @p stream against
+/// (those within reach of its region, periodic images resolved), by index.
+std::vector<std::uint32_t> particles_near_stream(const ParticleStream& stream,
+                                                 double largest_radius, const Domain& domain,
+                                                 const Particles& particles);
+
 /// Insert into @p particles the particles of @p stream due by @p time (its rate times the time
 /// since its start, capped at its end), each at a random centre of its region that overlaps no
 /// particle (touching allowed; periodic axes of @p domain wrap) and none of @p boundaries at their

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <numbers>
+#include <numeric>
 #include <stdexcept>
 #include <variant>
 
@@ -73,6 +74,12 @@ double cohesion_range(const std::vector<PairCoefficients>& table, double max_rad
 }  // namespace
 
 Scene build_scene(const Case& description) {
+  std::vector<std::uint32_t> every(description.particles.size());
+  std::iota(every.begin(), every.end(), 0U);
+  return build_scene(description, every);
+}
+
+Scene build_scene(const Case& description, const std::vector<std::uint32_t>& chosen) {
   Scene scene;
   scene.material_count = static_cast<int>(description.materials.size());
   for (const Material& m : description.materials) scene.material_names.push_back(m.name);
@@ -132,16 +139,19 @@ Scene build_scene(const Case& description) {
   // Every array sized once and filled on every thread: adding 10^6 particles one at a time, each
   // page cleared by the kernel on one thread, was a tenth of the set-up of a 10^6 lattice.
   const std::vector<ParticleSpec>& specs = description.particles;
-  const std::size_t n = specs.size();
+  const std::size_t n = chosen.size();
   Particles& p = scene.particles;
   p.assign_zeros(n);
   // Particles of an initial state keep their ids; the others take the next free ones, in order.
   std::int64_t next_id = 0;
   for (const ParticleSpec& spec : specs) next_id = std::max(next_id, spec.id + 1);
-  for (std::size_t i = 0; i < n; ++i) p.id[i] = specs[i].id >= 0 ? specs[i].id : next_id++;
+  std::vector<std::int64_t> ids(specs.size());
+  for (std::size_t i = 0; i < specs.size(); ++i)
+    ids[i] = specs[i].id >= 0 ? specs[i].id : next_id++;
+  for (std::size_t i = 0; i < n; ++i) p.id[i] = ids[chosen[i]];
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles)
   for (std::size_t i = 0; i < n; ++i) {
-    const ParticleSpec& spec = specs[i];
+    const ParticleSpec& spec = specs[chosen[i]];
     const double density = description.materials[static_cast<std::size_t>(spec.material)].density;
     p.material[i] = spec.material;
     p.radius[i] = spec.radius;
@@ -166,7 +176,7 @@ Scene build_scene(const Case& description) {
     p.track_temperatures();
     for (std::size_t i = 0; i < p.size(); ++i) {
       const Material& m = description.materials[static_cast<std::size_t>(p.material[i])];
-      p.temperature[i] = description.particles[i].temperature;
+      p.temperature[i] = specs[chosen[i]].temperature;
       p.inv_heat_capacity[i] = 1.0 / sphere_heat_capacity(p.mass[i], m.specific_heat);
     }
     p.peak_temperature = p.temperature;

@@ -72,6 +72,10 @@ struct Scene {
 
 /// Build the scene of a validated case; particle ids are their list positions.
 Scene build_scene(const Case& description);
+/// The scene of @p description with only the particles of @p chosen (indices into its particle
+/// list, in that order), each with the id it has in the whole scene; every other value (domain,
+/// largest radius, skin, ...) derived from the whole case: a process's share of a decomposed run.
+Scene build_scene(const Case& description, const std::vector<std::uint32_t>& chosen);
 
 /// Whether some pair of @p table has cohesion or EPSD rolling: then Particles::contact_history
 /// and PairHistory carry the JKR flags and EPSD springs, and the kernels compiled for that storage

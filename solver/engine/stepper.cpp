@@ -23,11 +23,25 @@ inline void kick_spin(Particles& p, std::size_t i, double half_dt) {
 
 Stepper::Stepper(Scene& scene, PairFlag pair_flag)
     : scene_(scene), pair_flag_(std::move(pair_flag)) {
+  start();
+  for (const std::int64_t id : scene_.particles.id) next_id_ = std::max(next_id_, id + 1);
+}
+
+Stepper::Stepper(Scene& scene, const RunShare& share, PairFlag pair_flag)
+    : scene_(scene), pair_flag_(std::move(pair_flag)) {
+  counted_ids_ = share.counted_ids;
+  share_only_ = true;  // marked once the list has put the particles in order
+  start();
+  next_id_ = share.next_particle_id;
+}
+
+void Stepper::start() {
   if (scene_.needs_pair_flag() && !pair_flag_) {
     throw std::invalid_argument("bond criterion 'pair flag' needs a pair-flag supplier");
   }
   if (simd_pass_applies(scene_)) lane_constants_ = lane_pair_constants(scene_);
   list_.build(scene_.particles, scene_.domain, list_reach(), scene_.reorder_interval > 0);
+  mark_counted();
   // An initial state's pairs keep their springs and bonds; a fresh scene has none.
   carry_pairs(carried_from(scene_.initial_pairs));
   scene_.initial_pairs = std::vector<SlipRecord>{};
@@ -35,7 +49,6 @@ Stepper::Stepper(Scene& scene, PairFlag pair_flag)
   compute_forces(std::numeric_limits<double>::quiet_NaN());
   bonds_formed_ = static_cast<std::int64_t>(contacts_.bonds_formed);
   streams_.assign(scene_.streams.size(), ParticleTally{});
-  for (const std::int64_t id : scene_.particles.id) next_id_ = std::max(next_id_, id + 1);
 }
 
 Stepper::Stepper(Scene& scene, StepperState restored, PairFlag pair_flag)
@@ -109,7 +122,13 @@ ContactSummary Stepper::evaluate_forces(const Law& law) {
 }
 
 void Stepper::compute_forces(double laser_time) {
-  // Pair slots are sized for the current list by carry_pairs, which follows every build.
+  // The per-pair forces are sized for the list here, the first time they are needed after a
+  // build or release_pair_forces(): a restored stepper that is only read (a checkpoint, the end
+  // of a decomposed run) never holds them (56 B a pair).
+  if (pair_forces_.fx.size() != list_.pair_count()) {
+    pair_forces_.resize(list_.pair_count(), scene_.friction, scene_.rolling(),
+                        scene_.particles.thermal());
+  }
   // Compiled per storage need: tangential springs (friction) and the contact history of cohesion
   // and EPSD rolling (Particles::contact_history); every other choice is the pair's, at run time.
   const bool models = scene_.particles.contact_history;
@@ -252,7 +271,6 @@ void Stepper::carry_pairs(CarriedPairs carried) {
     });
   }
   carried = CarriedPairs{};
-  pair_forces_.resize(pairs, scene_.friction, scene_.rolling(), scene_.particles.thermal());
 }
 
 void Stepper::rebuild_list() {
@@ -355,14 +373,25 @@ void Stepper::remove_outside() {
   if (kept.size() < p.size()) p.permute(kept);
 }
 
-bool Stepper::insert_from_streams(double time) {
+std::size_t Stepper::insert_from_streams(Particles& into, double time) {
   std::size_t added = 0;
   for (std::size_t k = 0; k < scene_.streams.size(); ++k) {
-    added += insert_due_particles(scene_.streams[k], k, time, step_count_ + 1, scene_.domain,
-                                  scene_.largest_radius, scene_.particles, next_id_, streams_[k],
-                                  scene_.boundaries);
+    added +=
+        insert_due_particles(scene_.streams[k], k, time, step_count_ + 1, scene_.domain,
+                             scene_.largest_radius, into, next_id_, streams_[k], scene_.boundaries);
   }
-  return added > 0;
+  return added;
+}
+
+bool Stepper::streams_due() const {
+  for (std::size_t k = 0; k < scene_.streams.size(); ++k) {
+    if (stream_due(scene_.streams[k], k, time_ + scene_.time_step, streams_[k])) return true;
+  }
+  return false;
+}
+
+std::size_t Stepper::insert_due_into(Particles& into) {
+  return insert_from_streams(into, time_ + scene_.time_step);
 }
 
 void Stepper::step() {
@@ -373,16 +402,13 @@ void Stepper::step() {
 }
 
 double Stepper::move() {
-  if (pair_forces_.fx.size() != list_.pair_count()) {  // after release_pair_forces()
-    pair_forces_.resize(list_.pair_count(), scene_.friction, scene_.rolling(),
-                        scene_.particles.thermal());
-  }
   return drift(scene_.time_step);
 }
 
 void Stepper::complete_step(bool rebuild) {
   const double dt = scene_.time_step;
-  const bool inserted = !scene_.streams.empty() && insert_from_streams(time_ + dt);
+  const bool inserted = insert_here_ && !scene_.streams.empty() &&
+                        insert_from_streams(scene_.particles, time_ + dt) > 0;
   if (rebuild || inserted) {
     rebuild_list();
   } else if (mesh_moved_half_skin(scene_, mesh_candidates_)) {

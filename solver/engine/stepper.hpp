@@ -77,6 +77,12 @@ enum class SavedArrays { kIncluded, kOmitted };
 /// Advances a scene in time. Owns the neighbor list and per-pair force slots; the scene owns the
 /// particles. OpenMP-parallel; the state after any number of steps is the same bytes for any
 /// thread count.
+/// A process's share of a fresh decomposed run: see Stepper(Scene&, const RunShare&).
+struct RunShare {
+  std::vector<std::int64_t> counted_ids;  ///< sorted
+  std::int64_t next_particle_id = 0;
+};
+
 class Stepper {
  public:
   /// Pair flag for BondCriterion::kPairFlag, called with the particles' stable ids.
@@ -84,6 +90,10 @@ class Stepper {
 
   /// Prepare to step @p scene: builds the neighbor list and evaluates the initial forces.
   explicit Stepper(Scene& scene, PairFlag pair_flag = {});
+  /// As Stepper(scene) for a process's part of a decomposed run, counting only the particles of
+  /// @p share.counted_ids from the initial forces on (count_only()); a stream's next particle
+  /// takes @p share.next_particle_id (the part does not hold the whole run's largest id).
+  Stepper(Scene& scene, const RunShare& share, PairFlag pair_flag = {});
 
   /// Continue from a saved state; the scene's particles (forces included) must be those saved
   /// with it. By value: its arrays are freed as soon as they are used (pass it moved).
@@ -161,6 +171,15 @@ class Stepper {
   /// its columns through @p agreement (deposit_laser_heat), so that each particle gets what the
   /// run in one process gives it and every process the same laser power.
   void share_laser(LaserAgreement agreement) { laser_agreement_ = std::move(agreement); }
+  /// Leave the streams' insertion to the caller (insert_due_into()): a decomposed run's
+  /// processes insert alike, each from the particles near the streams gathered from all, and the
+  /// new particles then join their owners. The stepper keeps the streams' tallies and next id.
+  void insert_elsewhere() { insert_here_ = false; }
+  /// Whether some stream owes a particle by the end of the step under way (after move()).
+  bool streams_due() const;
+  /// What complete_step() inserts, into @p into (the particles near the streams' regions) rather
+  /// than the scene's particles: the tallies and the next id advance alike. Returns the count.
+  std::size_t insert_due_into(Particles& into);
   /// Bonds formed so far (a pair joining the adhesive branch of eq. 25).
   std::int64_t bonds_formed() const { return bonds_formed_; }
   /// Bonds lost so far (overlap back at delta_crit, the pair apart, or the criterion failing).
@@ -175,6 +194,8 @@ class Stepper {
   const ParticleTally& removed() const { return removed_; }
 
  private:
+  /// The fresh constructors' work: the list, the initial pairs' state, the initial forces.
+  void start();
   /// Forces (and heat flows) at the current positions; @p laser_time, when finite, is the time at
   /// which the laser deposits heat during this step.
   void compute_forces(double laser_time);
@@ -185,8 +206,8 @@ class Stepper {
   void deposit_laser(double laser_time);
   /// Half kick and drift; returns the largest squared displacement since the last list build.
   double drift(double dt);
-  /// Insert what the scene's streams owe by @p time; returns whether any particle was added.
-  bool insert_from_streams(double time);
+  /// Insert into @p into what the scene's streams owe by @p time; returns the count.
+  std::size_t insert_from_streams(Particles& into, double time);
   /// Second half kick and the heat step; returns whether every value stayed finite.
   bool finish_step(double dt);
   /// The per-pair state (springs, bond flags) of the pairs that have any, keyed by particle ids:
@@ -267,6 +288,7 @@ class Stepper {
   double laser_missed_power_ = 0.0;
   std::vector<std::int64_t> counted_ids_;  ///< count_only()'s ids, sorted
   bool share_only_ = false;                ///< count_only() was called
+  bool insert_here_ = true;                ///< false after insert_elsewhere()
   std::vector<std::uint8_t> counted_;      ///< per particle, from counted_ids_ at every build
   std::vector<ParticleTally> streams_;     ///< per scene stream
   std::int64_t next_id_ = 0;               ///< id of the next inserted particle

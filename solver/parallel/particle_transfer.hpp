@@ -45,6 +45,15 @@ inline void append_particle(const Particles& from, std::size_t i, Particles& to)
   });
 }
 
+/// One particle of zeros with every field @p like uses: the layout of every record of its run,
+/// also when @p like holds no particle yet (a run that a stream fills).
+inline Particles particle_prototype(const Particles& like) {
+  Particles one = like.selected({});
+  const double zero[3] = {0.0, 0.0, 0.0};
+  one.add(0, 0, 0.0, 0.0, zero, zero);
+  return one;
+}
+
 /// Appends the bytes of particle @p i of @p p (every field it uses, in table order) to @p out:
 /// the same size for every particle of a run.
 inline void pack_particle(const Particles& p, std::size_t i, std::vector<char>& out) {
