@@ -894,13 +894,10 @@ class DistributedRun {
       state->list.x0 = next.x;
       state->list.y0 = next.y;
       state->list.z0 = next.z;
+      // In any order: the stepper keys them by ids (each pair once: its leader's owner sent it).
       state->slips = std::move(owned_slips);
       state->slips.insert(state->slips.end(), ghost_slips_arrived.begin(),
                           ghost_slips_arrived.end());
-      std::sort(state->slips.begin(), state->slips.end(),
-                [](const SlipRecord& a, const SlipRecord& b) {
-                  return std::pair(a.first_id, a.second_id) < std::pair(b.first_id, b.second_id);
-                });
     }
     RankPart fresh;
     fresh.scene = std::make_unique<Scene>(frame_);

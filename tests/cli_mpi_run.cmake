@@ -21,10 +21,14 @@
 #              over the falling powder: the processes agree on the beam's columns (each column's
 #              highest particle over all of them), so each particle absorbs what it absorbs in one
 #              process; VTK frames compared as the pour's.
-#   stream     cases/powder_pouring_ci.yaml, shortened to 20 ms: a stream fills an empty box,
-#              each process inserting alike from the particles near the stream's region gathered
-#              from all (history.csv counts them); VTK frames every 10 ms, compared as the pour's.
-#              Then stopped at 10 ms and continued from its checkpoint on another number.
+#   stream     cases/powder_pouring_ci.yaml, shortened to 10 ms: a stream pours 500 spheres into
+#              an empty box, each process inserting alike from the particles near the stream's
+#              region gathered from all (history.csv counts them); VTK frames every 5 ms, compared
+#              as the pour's. Then stopped at 5 ms and continued from its checkpoint on another
+#              number.
+#   stage      the pour's second stage: its box from the reference pour's end (initial_state:
+#              its checkpoint, bonds and springs included), 2 ms more; each process builds only
+#              its own particles of the state, whose pairs' state the parts take by ids.
 #   drum       cases/rotating_drum_ci.yaml, shortened to 40 ms: spheres falling into a rotating
 #              drum that is a triangle mesh (every process holds the whole mesh; 159 spheres touch
 #              it at the end, their contact history travelling with them); VTK frames at 0 and
@@ -39,6 +43,15 @@ string(REPLACE "analysis:\n" "analysis:\n  layers: {times: [0.001, 0.002], x_min
 x_max: 0.0024, y_min: 0.0, y_max: 0.0005, substrate_z: 0.0, layer_height: 0.00025, bins: 4}\n"
        spreading "${spreading}")
 file(WRITE ${WORK}/spreading.yaml "${spreading}")
+
+file(READ ${TEST_CASES}/storage_order.yaml stage)
+# One spelling of the path for every process count: the case's fingerprint (in its checkpoint)
+# includes it.
+get_filename_component(stage_state ${WORK}/../cli_mpi_run_0_work/pour_0/checkpoint.bin ABSOLUTE)
+string(REGEX REPLACE "\ninsert:\n.*\ntime:" "
+initial_state: {file: ${stage_state}}
+time:" stage "${stage}")
+file(WRITE ${WORK}/stage.yaml "${stage}")
 
 set(pour_case ${TEST_CASES}/storage_order.yaml)
 set(pour_options --set time.end=0.0024 --set output.checkpoint_interval=0.0012
@@ -56,9 +69,11 @@ set(leaving_options --set domain.periodic.2=false --set domain.remove_outside=tr
 set(laser_case ${CASES}/laser_sintering_ci.yaml)
 set(laser_options --set laser.start_time=0.00005 --set time.end=0.0001
                   --set output.vtk_interval=0.00005 --set output.checkpoint_interval=0.00005)
+set(stage_case ${WORK}/stage.yaml)
+set(stage_options --set time.end=0.002)
 set(stream_case ${CASES}/powder_pouring_ci.yaml)
-set(stream_options --set time.end=0.02 --set output.history_interval=0.001
-                   --set output.checkpoint_interval=0.01 --set output.vtk_interval=0.01)
+set(stream_options --set time.end=0.01 --set output.history_interval=0.001
+                   --set output.checkpoint_interval=0.005 --set output.vtk_interval=0.005)
 set(drum_case ${CASES}/rotating_drum_ci.yaml)
 set(drum_options --set time.end=0.04 --set output.checkpoint_interval=0.02)
 set(outputs history.csv final_state.csv last_good_state.csv checkpoint.bin clusters.csv layer.csv
@@ -103,7 +118,7 @@ function(expect_reference_bytes name directory what)
   endforeach()
 endfunction()
 
-foreach(name pour spreading thermal migration leaving laser drum stream)
+foreach(name pour spreading thermal migration leaving laser drum stream stage)
   set(directory ${WORK}/${name}_${PROCESSES})
   file(REMOVE_RECURSE ${directory})
   run_on(${PROCESSES} ${${name}_case} ${${name}_options} --output ${directory})
@@ -169,7 +184,7 @@ if(NOT PROCESSES EQUAL 0)
 
   set(directory ${WORK}/stream_restarted)
   file(REMOVE_RECURSE ${directory})
-  run_on(${PROCESSES} ${stream_case} ${stream_options} --set time.end=0.01 --output ${directory})
+  run_on(${PROCESSES} ${stream_case} ${stream_options} --set time.end=0.005 --output ${directory})
   run_on(${next} ${stream_case} ${stream_options} --output ${directory}
          --restart ${directory}/checkpoint.bin)
   expect_reference_bytes(stream ${directory}

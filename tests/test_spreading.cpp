@@ -8,10 +8,12 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <iterator>
 #include <map>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "io/case_file.hpp"
@@ -63,20 +65,53 @@ std::vector<double> history_means(const std::filesystem::path& path,
   return sums;
 }
 
-/// The run of cases/@p name, made on first use and kept for the other tests of the process; with
-/// @p seed other than 0, its insertion seed instead of the case's. History every 0.1 ms instead
-/// of the case's 1 ms: the loads are instantaneous, and their means over the 24 ms of spreading
-/// need the 240 rows (the rows do not change the run).
-const SpreadingRun& spreading_run(const std::string& name, int seed = 0) {
-  static std::map<std::string, SpreadingRun> runs;
-  const std::string key = seed == 0 ? name : name + "_seed" + std::to_string(seed);
-  if (const auto found = runs.find(key); found != runs.end()) return found->second;
+/// The key of the run of cases/@p name with insertion seed @p seed (0: the case's own).
+std::string run_key(const std::string& name, int seed) {
+  return seed == 0 ? name : name + "_seed" + std::to_string(seed);
+}
+
+/// The run of cases/@p name, with @p seed as in run_key(); VTK frames only when @p frames. History
+/// every 0.1 ms instead of the case's 1 ms: the loads are instantaneous, and their means over the
+/// 24 ms of spreading need the 240 rows (the rows do not change the run).
+SpreadingRun run_spreading(const std::string& name, int seed, bool frames) {
   SpreadingRun run;
   std::vector<std::string> overrides = {"output.history_interval=1e-4"};
   if (seed != 0) overrides.push_back("insert.0.seed=" + std::to_string(seed));
   run.c = load_case(BONDEM_CASES_DIR "/" + name + ".yaml", overrides);
-  run.directory = testing::test_root() / ("bondem_spreading_" + key);
+  if (!frames) run.c.vtk_interval = 0.0;  // outputs do not change a run
+  run.directory = testing::test_root() / ("bondem_spreading_" + run_key(name, seed));
   run.r = testing::quiet_run(run.c, run.directory);
+  return run;
+}
+
+/// The suite's runs (case, seed), started together on first use, each on a thread of its own (a
+/// run of 800 particles uses one): the suite then takes about its longest run where cores are
+/// free, not the sum of five (about 70 s each). Only the base case's run writes VTK frames (the
+/// one test that reads them), so that no two threads use VTK.
+const std::pair<const char*, int> kSuiteRuns[] = {{"powder_spreading_ci", 0},
+                                                  {"powder_spreading_friction_ci", 0},
+                                                  {"powder_spreading_cohesive_ci", 0},
+                                                  {"powder_spreading_ci", 11},
+                                                  {"powder_spreading_cohesive_ci", 11}};
+
+/// The run of cases/@p name (see run_key()), kept for the other tests of the process, with the
+/// means of its loads while the blade moves.
+const SpreadingRun& spreading_run(const std::string& name, int seed = 0) {
+  static std::map<std::string, std::future<SpreadingRun>> started;
+  static std::map<std::string, SpreadingRun> runs;
+  if (started.empty()) {
+    for (const auto& [suite_name, suite_seed] : kSuiteRuns) {
+      const bool frames = std::string(suite_name) == "powder_spreading_ci" && suite_seed == 0;
+      started.emplace(run_key(suite_name, suite_seed),
+                      std::async(std::launch::async, run_spreading, std::string(suite_name),
+                                 suite_seed, frames));
+    }
+  }
+  const std::string key = run_key(name, seed);
+  if (const auto found = runs.find(key); found != runs.end()) return found->second;
+  const auto pending = started.find(key);
+  SpreadingRun run =
+      pending != started.end() ? pending->second.get() : run_spreading(name, seed, true);
   const auto blade = std::find_if(run.c.boundaries.begin(), run.c.boundaries.end(),
                                   [](const Boundary& b) { return b.name == "blade"; });
   const double blade_start = blade->motion.keys.back().time;
