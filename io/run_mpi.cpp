@@ -789,6 +789,7 @@ class DistributedRun {
     // 1. Each owned particle to the owner of its position, with the pairs it leads.
     Particles next;
     std::vector<SlipRecord> owned_slips;  // of the pairs the particles owned from now on lead
+    StepperState state;
     {
       std::vector<int> new_owner(p.size(), -1);
       std::vector<std::uint32_t> kept;
@@ -811,11 +812,16 @@ class DistributedRun {
         part_.stepper->for_each_slip(std::span(&k, 1),
                                      [&](const SlipRecord& slip) { to.push_back(slip); });
       }
+      // The old part's list and pairs are read: freed before anything else is built.
+      state = part_.stepper->save_state(SavedArrays::kOmitted);
+      part_.stepper.reset();
       std::vector<std::int64_t> counts;
       const std::vector<char> arrived = bondem::exchanged(leaving, counts);
       const std::vector<SlipRecord> arrived_slips = exchanged(leaving_slips);
       owned_slips.insert(owned_slips.end(), arrived_slips.begin(), arrived_slips.end());
-      next = p.selected(kept);
+      next = std::move(part_.scene->particles);  // the kept ones, in place
+      part_.scene.reset();
+      next.permute(kept);
       const Particles newcomers = particles_from(arrived);
       for (std::size_t k = 0; k < newcomers.size(); ++k) append_particle(newcomers, k, next);
       for (std::size_t k = 0; k < arriving_.size(); ++k) {  // a stream's, every process holds them
@@ -826,12 +832,8 @@ class DistributedRun {
       }
     }  // what travelled is freed here
     const std::size_t owned = next.size();
-
-    StepperState state = part_.stepper->save_state(SavedArrays::kOmitted);
     ++state.list.builds;  // the step's
     state.removed = removed_;
-    part_.stepper.reset();  // the old part's memory, before the new one's
-    part_.scene.reset();
     take_part(std::move(next), owned, std::move(owned_slips), std::move(state));
     return true;
   }
