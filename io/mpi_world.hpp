@@ -11,6 +11,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 namespace bondem {
@@ -35,15 +36,21 @@ inline int world_size() {
 /// gather of the records of some 8 million particles).
 inline constexpr std::int64_t kTransferUnit = 64;
 
-/// The MPI datatype of one transfer unit, committed on first use.
-inline MPI_Datatype transfer_unit() {
-  static const MPI_Datatype unit = [] {
-    MPI_Datatype type = MPI_DATATYPE_NULL;
-    MPI_Type_contiguous(static_cast<int>(kTransferUnit), MPI_BYTE, &type);
-    MPI_Type_commit(&type);
-    return type;
+/// The MPI datatype of @p kBytes contiguous bytes, committed on first use.
+template <std::int64_t kBytes>
+MPI_Datatype bytes_type() {
+  static const MPI_Datatype type = [] {
+    MPI_Datatype made = MPI_DATATYPE_NULL;
+    MPI_Type_contiguous(static_cast<int>(kBytes), MPI_BYTE, &made);
+    MPI_Type_commit(&made);
+    return made;
   }();
-  return unit;
+  return type;
+}
+
+/// The MPI datatype of one transfer unit.
+inline MPI_Datatype transfer_unit() {
+  return bytes_type<kTransferUnit>();
 }
 
 /// Units that hold @p bytes.
@@ -54,54 +61,69 @@ inline std::int64_t units_of(std::int64_t bytes) {
 /// @p units as an MPI count; throws std::length_error beyond what an int holds.
 inline int mpi_count(std::int64_t units) {
   if (units > std::numeric_limits<int>::max()) {
-    throw std::length_error("a transfer between processes exceeds 2^31 units of " +
-                            std::to_string(kTransferUnit) + " B");
+    throw std::length_error("a transfer between processes exceeds 2^31 units");
   }
   return static_cast<int>(units);
 }
 
-/// @p parts (each a process's bytes padded to whole units, one after the other, @p bytes[r]
-/// bytes of process r in its units) with the padding taken out, in place.
-inline void unpad(std::vector<char>& parts, const std::vector<std::int64_t>& bytes) {
+/// The @p parts at @p data (each a process's bytes padded to whole units, one after the other,
+/// @p bytes[r] bytes of process r in its units) with the padding taken out, in place; returns the
+/// bytes kept.
+inline std::size_t unpad(char* data, const std::vector<std::int64_t>& bytes) {
   std::size_t to = 0, from = 0;
   for (const std::int64_t b : bytes) {
     const auto n = static_cast<std::size_t>(b);
-    if (to != from) std::memmove(parts.data() + to, parts.data() + from, n);
+    if (to != from) std::memmove(data + to, data + from, n);
     to += n;
     from += static_cast<std::size_t>(units_of(b) * kTransferUnit);
   }
-  parts.resize(to);
+  return to;
+}
+
+/// unpad() of a vector of bytes, resized to what is kept.
+inline void unpad(std::vector<char>& parts, const std::vector<std::int64_t>& bytes) {
+  parts.resize(unpad(parts.data(), bytes));
 }
 
 /// Every process's @p mine, concatenated in rank order, on every process (@p at_root_only: on
-/// rank 0 only; the others get nothing). @p mine is padded in place (pass it moved: a copy of a
-/// process's records at the end of a large run is 100 B a particle).
-inline std::vector<char> gathered(std::vector<char> mine, bool at_root_only = false) {
+/// rank 0 only; the others get nothing), received in place. Bytes travel in transfer units, @p mine
+/// padded in place (pass it moved, with room for a unit more: a copy of a process's records at
+/// the end of a large run is 100 B a particle); other trivially copyable values as datatypes of
+/// their own size, unpadded (counts then reach 2^31 values).
+template <class T>
+std::vector<T> gathered(std::vector<T> mine, bool at_root_only = false) {
+  static_assert(std::is_trivially_copyable_v<T>);
+  constexpr auto kUnit = sizeof(T) == 1 ? kTransferUnit : static_cast<std::int64_t>(sizeof(T));
+  const auto units = [](std::int64_t bytes) { return (bytes + kUnit - 1) / kUnit; };
+  const auto values = [](std::int64_t units_count) {
+    return static_cast<std::size_t>(units_count * kUnit) / sizeof(T);
+  };
   const auto size = static_cast<std::size_t>(world_size());
-  const auto my_bytes = static_cast<std::int64_t>(mine.size());
+  const auto my_bytes = static_cast<std::int64_t>(mine.size() * sizeof(T));
   std::vector<std::int64_t> bytes(size);
   MPI_Allgather(&my_bytes, 1, MPI_INT64_T, bytes.data(), 1, MPI_INT64_T, MPI_COMM_WORLD);
   std::vector<int> counts(size), offsets(size);
   std::int64_t total = 0;
   for (std::size_t r = 0; r < size; ++r) {
     offsets[r] = mpi_count(total);
-    counts[r] = mpi_count(units_of(bytes[r]));
+    counts[r] = mpi_count(units(bytes[r]));
     total += counts[r];
   }
   mpi_count(total);
-  std::vector<char>& padded = mine;
-  padded.resize(static_cast<std::size_t>(units_of(my_bytes) * kTransferUnit));
+  mine.resize(values(units(my_bytes)));
   const bool receives = !at_root_only || world_rank() == 0;
-  std::vector<char> all(receives ? static_cast<std::size_t>(total * kTransferUnit) : 0);
-  const int my_units = mpi_count(units_of(my_bytes));
+  std::vector<T> all(receives ? values(total) : 0);
+  const int my_units = mpi_count(units(my_bytes));
   if (at_root_only) {
-    MPI_Gatherv(padded.data(), my_units, transfer_unit(), all.data(), counts.data(), offsets.data(),
-                transfer_unit(), 0, MPI_COMM_WORLD);
+    MPI_Gatherv(mine.data(), my_units, bytes_type<kUnit>(), all.data(), counts.data(),
+                offsets.data(), bytes_type<kUnit>(), 0, MPI_COMM_WORLD);
   } else {
-    MPI_Allgatherv(padded.data(), my_units, transfer_unit(), all.data(), counts.data(),
-                   offsets.data(), transfer_unit(), MPI_COMM_WORLD);
+    MPI_Allgatherv(mine.data(), my_units, bytes_type<kUnit>(), all.data(), counts.data(),
+                   offsets.data(), bytes_type<kUnit>(), MPI_COMM_WORLD);
   }
-  if (receives) unpad(all, bytes);
+  if constexpr (sizeof(T) == 1) {
+    if (receives) all.resize(unpad(reinterpret_cast<char*>(all.data()), bytes));
+  }
   return all;
 }
 

@@ -360,16 +360,6 @@ class PieceFrames {
 /// keeps its part) or at its end (each frees its part once its share is packed).
 enum class Assembly { kMidRun, kAtEnd };
 
-/// Every process's @p mine, concatenated in rank order, on rank 0 (elsewhere: nothing); @p mine
-/// is freed as soon as its bytes are taken.
-template <class T>
-std::vector<T> gathered_values(std::vector<T> mine) {
-  std::vector<char> bytes = bytes_of(mine);
-  std::vector<T>().swap(mine);
-  bytes = gathered(std::move(bytes), true);
-  return values_of<T>(bytes);
-}
-
 /// A scene and a stepper holding the whole run's state: what rank 0 assembles from every
 /// process's particles to write a checkpoint and the end-of-run files with the observers of the
 /// run in one process.
@@ -512,52 +502,59 @@ class DistributedRun {
   /// On rank 0, the whole run's state assembled from every process's owned particles and pairs
   /// (each pair sent by the owner of its smaller id); elsewhere, nothing. Every process calls it.
   WholeRun assemble(Assembly when = Assembly::kMidRun) {
+    const bool at_end = when == Assembly::kAtEnd;
+    const bool root = world_rank() == 0;
     StepperState state = part_.stepper->save_state(SavedArrays::kOmitted);
-    std::vector<char> records;
+    std::vector<std::uint32_t> owned;
+    const Particles& p = part_.scene->particles;
+    for (std::uint32_t k = 0; k < p.size(); ++k) {
+      if (part_.owns(p.id[k])) owned.push_back(k);
+    }
     std::vector<double> build_positions;  // x0, y0, z0 of each owned particle
     std::vector<SlipRecord> slips;        // of the pairs the owned particles lead
-    {
-      const Particles& p = part_.scene->particles;
-      const NeighborList& list = part_.stepper->neighbors();
-      std::vector<std::uint32_t> owned;
-      for (std::uint32_t k = 0; k < p.size(); ++k) {
-        if (!part_.owns(p.id[k])) continue;
-        owned.push_back(k);
-        pack_particle(p, k, records);
-        build_positions.insert(
-            build_positions.end(),
-            {list.build_positions(0)[k], list.build_positions(1)[k], list.build_positions(2)[k]});
-      }
-      part_.stepper->for_each_slip(owned, [&](const SlipRecord& s) { slips.push_back(s); });
+    const NeighborList& list = part_.stepper->neighbors();
+    build_positions.reserve(3 * owned.size());
+    std::size_t pairs = 0;  // counted first: a vector grown by doubling would peak at twice
+    part_.stepper->for_each_slip(owned, [&](const SlipRecord&) { ++pairs; });
+    slips.reserve(pairs);
+    for (const std::uint32_t k : owned) {
+      build_positions.insert(
+          build_positions.end(),
+          {list.build_positions(0)[k], list.build_positions(1)[k], list.build_positions(2)[k]});
     }
-    if (when == Assembly::kAtEnd) {  // rank 0 then holds the whole run, not its part besides
-      part_.stepper.reset();
-      part_.scene.reset();
+    part_.stepper->for_each_slip(owned, [&](const SlipRecord& s) { slips.push_back(s); });
+    // At the end each process frees its part as soon as it is read; rank 0 then takes the shares
+    // one kind at a time, each freed once used.
+    if (at_end) part_.stepper.reset();
+    std::vector<char> records;
+    records.reserve(owned.size() * record_bytes_ + kTransferUnit);  // padded in place
+    for (const std::uint32_t k : owned) pack_particle(p, k, records);
+    if (at_end) part_.scene.reset();
+    Particles all;
+    if (const std::vector<char> all_records = gathered(std::move(records), true); root) {
+      all = particles_from(all_records);
     }
-    const std::vector<char> all_records = gathered(std::move(records), true);
-    const std::vector<double> all_positions = gathered_values(std::move(build_positions));
-    std::vector<SlipRecord> all_slips = gathered_values(std::move(slips));
-    if (world_rank() != 0) return {};
-
-    Particles all = particles_from(all_records);
     const std::vector<std::uint32_t> by_id = all.order_by_id();
     all.permute(by_id);
     StepperState whole = std::move(state);
+    if (const std::vector<double> all_positions = gathered(std::move(build_positions), true);
+        root) {
+      for (int axis = 0; axis < 3; ++axis) {
+        StaggeredVector<double> positions(by_id.size());
+        for (std::size_t k = 0; k < by_id.size(); ++k) {
+          positions[k] = all_positions[3 * by_id[k] + static_cast<std::size_t>(axis)];
+        }
+        (axis == 0 ? whole.list.x0 : axis == 1 ? whole.list.y0 : whole.list.z0).swap(positions);
+      }
+    }
+    // In any order: the stepper keys the pairs' state by ids.
+    whole.slips = gathered(std::move(slips), true);
+    if (!root) return {};
+
     whole.contacts = contacts_;
     whole.bonds_formed = bonds_formed_;
     whole.bonds_broken = bonds_broken_;
     whole.removed = removed_;
-    for (int axis = 0; axis < 3; ++axis) {
-      StaggeredVector<double> positions(by_id.size());
-      for (std::size_t k = 0; k < by_id.size(); ++k) {
-        positions[k] = all_positions[3 * by_id[k] + static_cast<std::size_t>(axis)];
-      }
-      (axis == 0 ? whole.list.x0 : axis == 1 ? whole.list.y0 : whole.list.z0).swap(positions);
-    }
-    std::sort(all_slips.begin(), all_slips.end(), [](const SlipRecord& a, const SlipRecord& b) {
-      return std::pair(a.first_id, a.second_id) < std::pair(b.first_id, b.second_id);
-    });
-    whole.slips = std::move(all_slips);
     WholeRun run;
     run.scene = std::make_unique<Scene>(frame_);
     run.scene->particles = std::move(all);
@@ -656,7 +653,7 @@ class DistributedRun {
         mine.insert(mine.end(), {p.x[k], p.y[k], p.z[k], p.radius[k]});
       }
     }
-    const std::vector<double> every = values_of<double>(gathered(bytes_of(mine)));
+    const std::vector<double> every = gathered(std::move(mine));
     Particles around = one_particle_.selected({});
     const double at_rest[3] = {0.0, 0.0, 0.0};
     for (std::size_t k = 0; k + 3 < every.size(); k += 4) {
@@ -977,10 +974,9 @@ class DistributedRun {
       if (part_.owns(s.first_id)) slips.push_back(s);
     }
     const Particles all = particles_from(gathered(std::move(records)));
-    StepperState state =
-        redistribution_state(mine, all, values_of<SlipRecord>(gathered(bytes_of(slips))));
+    StepperState state = redistribution_state(mine, all, gathered(std::move(slips)));
     ++state.list.builds;  // the step's build
-    distribute(all, state, values_of<double>(gathered(bytes_of(owned_costs))));
+    distribute(all, state, gathered(std::move(owned_costs)));
   }
 
   /// The load above the mean (by stepping_costs()) at which a rebuild moves the cuts.
@@ -1265,8 +1261,8 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
           [&](auto member) {
             auto& values = mine.*member;
             using Value = typename std::decay_t<decltype(values)>::value_type;
-            const std::vector<Value> own(values.begin(), values.end());
-            const std::vector<Value> every = values_of<Value>(gathered(bytes_of(own), true));
+            const std::vector<Value> every =
+                gathered(std::vector<Value>(values.begin(), values.end()), true);
             (all.*member).assign(every.begin(), every.end());
             std::decay_t<decltype(values)>().swap(values);  // freed as soon as sent
           },

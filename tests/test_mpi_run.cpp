@@ -107,7 +107,7 @@ class MpiRankRun {
     for (std::size_t k = 0; k < all.size(); ++k) unpack_particle(bytes.data() + k * record, all, k);
     // The pairs' state of every process (a pair two processes hold is the same).
     const StepperState mine = part_.stepper->save_state();
-    std::vector<SlipRecord> slips = values_of<SlipRecord>(gathered(bytes_of(mine.slips)));
+    std::vector<SlipRecord> slips = gathered(mine.slips);
     distribute(all, redistribution_state(mine, all, std::move(slips)));
   }
 
