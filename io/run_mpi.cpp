@@ -1031,22 +1031,17 @@ std::optional<DistributedRun> start_fresh(Case& description) {
       order[i] = static_cast<std::int64_t>(i);
     }
     wrap_periodic_positions(where, frame.domain);
-    const auto& x = where.x;
-    const auto& y = where.y;
-    const auto& z = where.z;
-    decomposition =
-        bisect(x, y, z, cost, order, Box{frame.domain.min, frame.domain.max}, world_size(), halo);
+    decomposition = bisect(where.x, where.y, where.z, cost, order,
+                           Box{frame.domain.min, frame.domain.max}, world_size(), halo);
     for (std::size_t i = 0; i < n; ++i) {
-      if (decomposition.owner(x[i], y[i], z[i]) == world_rank()) {
+      if (decomposition.owner(where.x[i], where.y[i], where.z[i]) == world_rank()) {
         mine.push_back(static_cast<std::uint32_t>(i));
       }
     }
   }
-  // The id after the largest (as Stepper(scene) finds it): particles without an id take the
-  // next free ones (build_scene).
+  // The id after the largest, as Stepper(scene) finds it in the whole scene.
   std::int64_t next_id = 0;
-  for (const ParticleSpec& spec : specs) next_id = std::max(next_id, spec.id + 1);
-  for (const ParticleSpec& spec : specs) next_id += spec.id < 0 ? 1 : 0;
+  for (const std::int64_t id : particle_ids(description)) next_id = std::max(next_id, id + 1);
   Scene own = build_scene(description, mine);
   std::vector<ParticleSpec>().swap(description.particles);
   Particles owned = std::move(own.particles);

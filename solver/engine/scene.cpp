@@ -73,6 +73,16 @@ double cohesion_range(const std::vector<PairCoefficients>& table, double max_rad
 
 }  // namespace
 
+std::vector<std::int64_t> particle_ids(const Case& description) {
+  const std::vector<ParticleSpec>& specs = description.particles;
+  std::int64_t next_id = 0;
+  for (const ParticleSpec& spec : specs) next_id = std::max(next_id, spec.id + 1);
+  std::vector<std::int64_t> ids(specs.size());
+  for (std::size_t i = 0; i < specs.size(); ++i)
+    ids[i] = specs[i].id >= 0 ? specs[i].id : next_id++;
+  return ids;
+}
+
 Scene build_scene(const Case& description) {
   std::vector<std::uint32_t> every(description.particles.size());
   std::iota(every.begin(), every.end(), 0U);
@@ -142,12 +152,7 @@ Scene build_scene(const Case& description, const std::vector<std::uint32_t>& cho
   const std::size_t n = chosen.size();
   Particles& p = scene.particles;
   p.assign_zeros(n);
-  // Particles of an initial state keep their ids; the others take the next free ones, in order.
-  std::int64_t next_id = 0;
-  for (const ParticleSpec& spec : specs) next_id = std::max(next_id, spec.id + 1);
-  std::vector<std::int64_t> ids(specs.size());
-  for (std::size_t i = 0; i < specs.size(); ++i)
-    ids[i] = specs[i].id >= 0 ? specs[i].id : next_id++;
+  const std::vector<std::int64_t> ids = particle_ids(description);
   for (std::size_t i = 0; i < n; ++i) p.id[i] = ids[chosen[i]];
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles)
   for (std::size_t i = 0; i < n; ++i) {

@@ -4,6 +4,7 @@
 
 #include <Eigen/Core>
 #include <algorithm>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
@@ -70,7 +71,11 @@ struct Scene {
   }
 };
 
-/// Build the scene of a validated case; particle ids are their list positions.
+/// The ids build_scene() gives the case's particles, by list position: an initial state's keep
+/// theirs, the others take the next free ones in order.
+std::vector<std::int64_t> particle_ids(const Case& description);
+
+/// Build the scene of a validated case; particle ids are particle_ids().
 Scene build_scene(const Case& description);
 /// The scene of @p description with only the particles of @p chosen (indices into its particle
 /// list, in that order), each with the id it has in the whole scene; every other value (domain,

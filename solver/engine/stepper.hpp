@@ -74,15 +74,15 @@ struct StepperState {
 /// Whether Stepper::save_state() copies the arrays of the state.
 enum class SavedArrays { kIncluded, kOmitted };
 
-/// Advances a scene in time. Owns the neighbor list and per-pair force slots; the scene owns the
-/// particles. OpenMP-parallel; the state after any number of steps is the same bytes for any
-/// thread count.
 /// A process's share of a fresh decomposed run: see Stepper(Scene&, const RunShare&).
 struct RunShare {
   std::vector<std::int64_t> counted_ids;  ///< sorted
   std::int64_t next_particle_id = 0;
 };
 
+/// Advances a scene in time. Owns the neighbor list and per-pair force slots; the scene owns the
+/// particles. OpenMP-parallel; the state after any number of steps is the same bytes for any
+/// thread count.
 class Stepper {
  public:
   /// Pair flag for BondCriterion::kPairFlag, called with the particles' stable ids.
