@@ -53,9 +53,16 @@ std::uint64_t payload_checksum(const char* data, std::size_t size,
 /// twice, counting then writing, so the payload is never held in memory.
 class Writer {
  public:
-  explicit Writer(std::ostream* out = nullptr) : out_(out) {
+  /// With @p out, writes; without, counts, and runs a distributed checkpoint's streams only when
+  /// @p serves (a process other than the writer).
+  explicit Writer(std::ostream* out = nullptr, bool serves = false)
+      : out_(out), streams_(out != nullptr || serves) {
     if (out_ != nullptr) buffer_.resize(kBufferBytes);
   }
+  /// Whether a distributed checkpoint's streams run (not in a counting pass).
+  bool streams() const { return streams_; }
+  /// Whether the bytes go to a stream (not counted only, nor served).
+  bool writes() const { return out_ != nullptr; }
   template <class T>
   void put(const T& value) {
     static_assert(std::is_trivially_copyable_v<T>);
@@ -80,6 +87,22 @@ class Writer {
       append(reinterpret_cast<const char*>(values.data() + i * stride), stride * sizeof(T));
     }
   }
+  /// @p values (@p stride a particle of this process's part) as put(values, order, stride) of
+  /// the whole run's by id writes them, from every process's part through @p parts.
+  template <class T, class Allocator>
+  void put(const std::vector<T, Allocator>& values, std::size_t stride,
+           const DistributedParts& parts) {
+    const std::uint64_t count = parts.particles * stride;
+    put(count);
+    if (!streams_) {
+      size_ += count * sizeof(T);
+      return;
+    }
+    parts.column({reinterpret_cast<const char*>(values.data()), stride * sizeof(T)},
+                 [this](const char* data, std::size_t size) { append(data, size); });
+  }
+  /// Counts @p size bytes put elsewhere (a counting pass over what a stream would put).
+  void skip(std::uint64_t size) { size_ += size; }
   void put(const std::string& text) {
     put(static_cast<std::uint64_t>(text.size()));
     append(text.data(), text.size());
@@ -116,6 +139,7 @@ class Writer {
   }
 
   std::ostream* out_;
+  bool streams_;
   std::vector<char> buffer_;
   std::size_t used_ = 0;
   std::uint64_t size_ = 0;
@@ -519,35 +543,50 @@ void put_payload(Writer& payload, const CheckpointView& checkpoint, std::uint64_
   payload.put(s.contacts.max_overlap);
   payload.put(s.contacts.max_overlap_fraction);
   payload.put(s.list.builds);
-  payload.put(static_cast<std::uint64_t>(p.size()));
+  const std::optional<DistributedParts>& parts = checkpoint.parts;
+  payload.put(static_cast<std::uint64_t>(parts ? parts->particles : p.size()));
   const std::vector<std::uint32_t>& by_id = *checkpoint.by_id;
+  // A column of values by id: this process's, or every process's part's.
+  const auto put_column = [&](const auto& values, std::size_t stride) {
+    if (parts) {
+      payload.put(values, stride, *parts);
+    } else {
+      payload.put(values, by_id, stride);
+    }
+  };
   const auto put_section = [&](CheckpointSection section) {
     for (const ParticleField& field : kParticleFields) {
       if (has(field, kCheckpointed) && checkpoint_section(field) == section) {
-        std::visit(
-            [&](auto member) { payload.put(p.*member, by_id, values_per_particle(field, p)); },
-            field.member);
+        std::visit([&](auto member) { put_column(p.*member, values_per_particle(field, p)); },
+                   field.member);
       }
     }
   };
   put_section(CheckpointSection::kParticle);
-  for (const StaggeredVector<double>* axis : checkpoint.build_positions) {
-    payload.put(*axis, by_id, 1);
-  }
+  for (const StaggeredVector<double>* axis : checkpoint.build_positions) put_column(*axis, 1);
   payload.put(static_cast<std::int32_t>(p.walls));
   put_section(CheckpointSection::kWall);
   // Field by field: the struct's padding bytes are not part of the state.
   payload.put(slips);
   std::uint64_t visited = 0;
-  checkpoint.for_each_slip([&](const SlipRecord& slip) {
-    payload.put(slip.first_id);
-    payload.put(slip.second_id);
-    for (const double v : {slip.sx, slip.sy, slip.sz, slip.rx, slip.ry, slip.rz}) payload.put(v);
-    payload.put(slip.bonded);
-    payload.put(slip.joined);
-    ++visited;
-  });
-  if (visited != slips) throw std::logic_error("checkpoint: the pairs' state changed its count");
+  constexpr std::uint64_t kSlipBytes = 2 * sizeof(std::int64_t) + 6 * sizeof(double) + 2;
+  if (parts && !payload.streams()) {
+    payload.skip(slips * kSlipBytes);  // counted: the collective stream runs in the writing pass
+  } else {
+    checkpoint.for_each_slip([&](const SlipRecord& slip) {
+      payload.put(slip.first_id);
+      payload.put(slip.second_id);
+      for (const double v : {slip.sx, slip.sy, slip.sz, slip.rx, slip.ry, slip.rz}) payload.put(v);
+      payload.put(slip.bonded);
+      payload.put(slip.joined);
+      ++visited;
+    });
+    static_assert(sizeof(SlipRecord::bonded) + sizeof(SlipRecord::joined) == 2);
+    // A serving process visits none: the writer checks the count.
+    if (payload.writes() && visited != slips) {
+      throw std::logic_error("checkpoint: the pairs' state changed its count");
+    }
+  }
   payload.put(s.boundaries);
   payload.put(s.bonds_formed);
   payload.put(s.bonds_broken);
@@ -588,7 +627,8 @@ CheckpointView checkpoint_view(const Checkpoint& checkpoint) {
           [&s](const std::function<void(const SlipRecord&)>& visit) {
             for (const SlipRecord& slip : s.slips) visit(slip);  // by ids (collect_slips)
           },
-          std::make_shared<const std::vector<std::uint32_t>>(checkpoint.particles.order_by_id())};
+          std::make_shared<const std::vector<std::uint32_t>>(checkpoint.particles.order_by_id()),
+          std::nullopt};
 }
 
 CheckpointView checkpoint_view(std::uint64_t case_fingerprint, const Particles& particles,
@@ -606,15 +646,25 @@ CheckpointView checkpoint_view(std::uint64_t case_fingerprint, const Particles& 
           [&stepper, by_id](const std::function<void(const SlipRecord&)>& visit) {
             stepper.for_each_slip(*by_id, visit);
           },
-          by_id};
+          by_id,
+          std::nullopt};
 }
 
 void write_checkpoint(const std::string& path, const CheckpointView& checkpoint) {
-  std::uint64_t slips = 0;
-  checkpoint.for_each_slip([&slips](const SlipRecord& /*slip*/) { ++slips; });
+  std::uint64_t slips = checkpoint.parts ? checkpoint.parts->slips : 0;
+  if (!checkpoint.parts)
+    checkpoint.for_each_slip([&slips](const SlipRecord& /*slip*/) { ++slips; });
   Writer counter;
   put_payload(counter, checkpoint, slips);
-  AtomicFile file(path, std::ios::binary);
+  std::optional<AtomicFile> opened;
+  try {
+    opened.emplace(path, std::ios::binary);
+  } catch (...) {
+    // The other processes are in the streams: they are served before the error travels on.
+    if (checkpoint.parts) serve_checkpoint(checkpoint);
+    throw;
+  }
+  AtomicFile& file = *opened;
   std::ostream& out = file.stream();
   out.write(kMagic, sizeof kMagic);
   const std::uint32_t version = kCheckpointVersion;
@@ -627,6 +677,12 @@ void write_checkpoint(const std::string& path, const CheckpointView& checkpoint)
   const std::uint64_t checksum = payload.finish();
   out.write(reinterpret_cast<const char*>(&checksum), sizeof checksum);
   file.commit();
+}
+
+void serve_checkpoint(const CheckpointView& checkpoint) {
+  if (!checkpoint.parts) throw std::logic_error("serve_checkpoint: not a distributed checkpoint");
+  Writer server(nullptr, true);
+  put_payload(server, checkpoint, checkpoint.parts->slips);
 }
 
 void write_checkpoint(const std::string& path, const Checkpoint& checkpoint) {

@@ -7,6 +7,7 @@
 #include <functional>
 #include <iterator>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -136,6 +137,27 @@ void write_checkpoint(const std::string& path, const Checkpoint& checkpoint);
 /// Calls its argument once with every pair's carried state, in the same order at every call.
 using SlipVisitor = std::function<void(const std::function<void(const SlipRecord&)>&)>;
 
+/// One process's values of a checkpointed column (a particle field, or an axis of the list's
+/// build positions): @p bytes a particle, in the storage order of its part.
+struct PartColumn {
+  const char* data = nullptr;
+  std::size_t bytes = 0;
+};
+
+/// Takes the next @p size bytes of a payload.
+using Emit = std::function<void(const char* data, std::size_t size)>;
+
+/// The parts of a distributed run, given on every process: the checkpoint's particles are then
+/// this process's part (their layout: walls, fields in use; and its values); the counts are the
+/// whole run's; the streams are collective: every process calls them alike, and the writer (rank
+/// 0) receives every process's values, merged by id.
+struct DistributedParts {
+  std::uint64_t particles = 0;  ///< in the whole run
+  std::uint64_t slips = 0;      ///< pairs with carried state in the whole run
+  /// Emits @p column's values of every particle of the run by id (nothing away from the writer).
+  std::function<void(PartColumn column, const Emit& emit)> column;
+};
+
 /// A checkpoint's content by reference: what a running simulation writes, without copying its
 /// particles, its neighbor list's build positions or its pairs' state.
 struct CheckpointView {
@@ -151,6 +173,9 @@ struct CheckpointView {
   SlipVisitor for_each_slip;
   /// The particles' order_by_id(): the checkpoint holds them by id, whatever their storage order.
   std::shared_ptr<const std::vector<std::uint32_t>> by_id;
+  /// Set in a distributed run: the particles and the pairs come from every process's part, and
+  /// for_each_slip is collective.
+  std::optional<DistributedParts> parts;
 };
 
 /// The view of @p checkpoint.
@@ -168,6 +193,10 @@ CheckpointView checkpoint_view(std::uint64_t case_fingerprint, const Particles& 
 /// serialized twice (counted, then written and hashed) and never held in memory, so a checkpoint
 /// of 10^6 particles costs no copy of them.
 void write_checkpoint(const std::string& path, const CheckpointView& checkpoint);
+
+/// A distributed run's write_checkpoint() on the processes other than the writer: the same
+/// collective streams of @p checkpoint.parts, contributing this process's values.
+void serve_checkpoint(const CheckpointView& checkpoint);
 
 /// Read and verify a checkpoint. Throws CheckpointError naming the file and the problem.
 Checkpoint read_checkpoint(const std::string& path);

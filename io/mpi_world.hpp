@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <string>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace bondem {
@@ -89,9 +90,11 @@ inline void unpad(std::vector<char>& parts, const std::vector<std::int64_t>& byt
 /// rank 0 only; the others get nothing), received in place. Bytes travel in transfer units, @p mine
 /// padded in place (pass it moved, with room for a unit more: a copy of a process's records at
 /// the end of a large run is 100 B a particle); other trivially copyable values as datatypes of
-/// their own size, unpadded (counts then reach 2^31 values).
+/// their own size, unpadded (counts then reach 2^31 values). With @p bytes_from, the bytes each
+/// process sent, by rank.
 template <class T>
-std::vector<T> gathered(std::vector<T> mine, bool at_root_only = false) {
+std::vector<T> gathered(std::vector<T> mine, bool at_root_only = false,
+                        std::vector<std::int64_t>* bytes_from = nullptr) {
   static_assert(std::is_trivially_copyable_v<T>);
   constexpr auto kUnit = sizeof(T) == 1 ? kTransferUnit : static_cast<std::int64_t>(sizeof(T));
   const auto units = [](std::int64_t bytes) { return (bytes + kUnit - 1) / kUnit; };
@@ -124,6 +127,7 @@ std::vector<T> gathered(std::vector<T> mine, bool at_root_only = false) {
   if constexpr (sizeof(T) == 1) {
     if (receives) all.resize(unpad(reinterpret_cast<char*>(all.data()), bytes));
   }
+  if (bytes_from != nullptr) *bytes_from = std::move(bytes);
   return all;
 }
 

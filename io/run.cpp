@@ -387,10 +387,8 @@ void check_output_fields(const Case& description, const Scene& scene,
   }
 }
 
-RunResult collect_result(const RunEnd& end, const Simulation& simulation,
-                         const RunFigures& figures) {
-  const Stepper& stepper = simulation.stepper();
-  const std::size_t n = simulation.scene().particles.size();
+RunResult collect_result(const RunEnd& end, const RunCounts& counts, const RunFigures& figures) {
+  const std::size_t n = counts.particles;
   RunResult result;
   result.steps = end.step - end.first_step;
   result.particles = n;
@@ -400,8 +398,8 @@ RunResult collect_result(const RunEnd& end, const Simulation& simulation,
       end.loop_seconds > 0.0
           ? static_cast<double>(result.steps) * static_cast<double>(n) / end.loop_seconds
           : 0.0;
-  result.neighbor_builds = stepper.neighbors().build_count();
-  result.contacts = stepper.contacts();
+  result.neighbor_builds = counts.neighbor_builds;
+  result.contacts = counts.contacts;
   result.packing = figures.packing;
   result.packing_region = figures.packing_region;
   result.layer = figures.layer;
@@ -410,10 +408,22 @@ RunResult collect_result(const RunEnd& end, const Simulation& simulation,
   result.unbonded = figures.unbonded;
   result.primary_sizes = figures.primary_sizes;
   result.cluster_sizes = figures.cluster_sizes;
-  result.bonds_formed = stepper.bonds_formed();
-  result.bonds_broken = stepper.bonds_broken();
+  result.bonds_formed = counts.bonds_formed;
+  result.bonds_broken = counts.bonds_broken;
   result.thermal = figures.thermal;
   return result;
+}
+
+RunResult collect_result(const RunEnd& end, const Simulation& simulation,
+                         const RunFigures& figures) {
+  const Stepper& stepper = simulation.stepper();
+  RunCounts counts;
+  counts.particles = simulation.scene().particles.size();
+  counts.neighbor_builds = stepper.neighbors().build_count();
+  counts.contacts = stepper.contacts();
+  counts.bonds_formed = stepper.bonds_formed();
+  counts.bonds_broken = stepper.bonds_broken();
+  return collect_result(end, counts, figures);
 }
 
 namespace {

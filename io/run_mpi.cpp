@@ -220,6 +220,160 @@ void wrap_periodic_positions(Particles& p, const Domain& domain) {
   }
 }
 
+/// Every process's owned particles in id order, cut into chunks of kChunk ids:
+/// how the parts stream values to rank 0 by id (a checkpoint's columns and pairs, the end of a
+/// run) without any process holding the whole run's at once. Collective to build and to use.
+class IdStream {
+ public:
+  /// Ids per chunk: a chunk of the widest column (wall slips, 144 B a particle with 6 walls) is
+  /// 2.4 MB, and the few held at once add little to the peak of a step.
+  static constexpr std::size_t kChunk = std::size_t{1} << 14;
+
+  /// Over the particles of @p p that @p part owns.
+  IdStream(const Particles& p, const RankPart& part) {
+    for (std::uint32_t k = 0; k < p.size(); ++k) {
+      if (part.owns(p.id[k])) rows_.push_back(k);
+    }
+    std::sort(rows_.begin(), rows_.end(),
+              [&](std::uint32_t a, std::uint32_t b) { return p.id[a] < p.id[b]; });
+    std::vector<std::int64_t> ids(rows_.size());
+    for (std::size_t k = 0; k < rows_.size(); ++k) ids[k] = p.id[rows_[k]];
+    // Chunks by id, kChunk ids each: ids are below the next free one, so few chunks are empty.
+    std::int64_t largest = ids.empty() ? -1 : ids.back();
+    MPI_Allreduce(MPI_IN_PLACE, &largest, 1, MPI_INT64_T, MPI_MAX, MPI_COMM_WORLD);
+    const auto chunk_ids = static_cast<std::int64_t>(kChunk);
+    const std::int64_t chunks = largest / chunk_ids + 1;
+    for (std::int64_t c = 0; c <= chunks; ++c) {  // rows_[cuts_[c], cuts_[c + 1]): chunk c's
+      cuts_.push_back(static_cast<std::size_t>(
+          std::lower_bound(ids.begin(), ids.end(), c * chunk_ids) - ids.begin()));
+    }
+    // Rank 0 learns which process holds each particle of the run by id, merging the processes'
+    // sorted ids a chunk at a time (a whole run's ids at once would be 8 B a particle more).
+    const bool root = world_rank() == 0;
+    total_ = rows_.size();
+    MPI_Allreduce(MPI_IN_PLACE, &total_, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+    if (root) source_.reserve(total_);
+    for (std::size_t c = 0; c + 1 < cuts_.size(); ++c) {
+      std::vector<std::int64_t> bytes;
+      const std::vector<std::int64_t> all = gathered(
+          std::vector<std::int64_t>(ids.begin() + static_cast<std::ptrdiff_t>(cuts_[c]),
+                                    ids.begin() + static_cast<std::ptrdiff_t>(cuts_[c + 1])),
+          true, &bytes);
+      if (!root) continue;
+      std::vector<std::size_t> next(bytes.size(), 0), end(bytes.size(), 0);
+      for (std::size_t r = 0; r < bytes.size(); ++r) {
+        next[r] = r == 0 ? 0 : end[r - 1];
+        end[r] = next[r] + static_cast<std::size_t>(bytes[r]) / sizeof(std::int64_t);
+      }
+      for (std::size_t k = 0; k < all.size(); ++k) {
+        std::size_t lowest = bytes.size();
+        for (std::size_t r = 0; r < bytes.size(); ++r) {
+          if (next[r] < end[r] && (lowest == bytes.size() || all[next[r]] < all[next[lowest]])) {
+            lowest = r;
+          }
+        }
+        ++next[lowest];
+        source_.push_back(static_cast<std::int32_t>(lowest));
+      }
+      chunk_begins_.push_back(source_.size() - all.size());
+    }
+  }
+
+  /// Particles of the whole run.
+  std::uint64_t total() const { return total_; }
+  /// This process's owned particles by id, as indices of its part.
+  const std::vector<std::uint32_t>& rows() const { return rows_; }
+
+  /// On rank 0, @p emit receives @p column's values of every particle of the run by id, a chunk
+  /// at a time; every process sends its own.
+  void column(PartColumn column, const Emit& emit) const {
+    std::vector<char> merged;
+    for (std::size_t c = 0; c + 1 < cuts_.size(); ++c) {
+      std::vector<char> mine;
+      mine.reserve((cuts_[c + 1] - cuts_[c]) * column.bytes + kTransferUnit);
+      for (std::size_t k = cuts_[c]; k < cuts_[c + 1]; ++k) {
+        const char* value = column.data + rows_[k] * column.bytes;
+        mine.insert(mine.end(), value, value + column.bytes);
+      }
+      std::vector<std::int64_t> bytes;
+      const std::vector<char> all = gathered(std::move(mine), true, &bytes);
+      if (world_rank() != 0) continue;
+      std::vector<std::size_t> next(bytes.size(), 0);  // where each process's next value starts
+      for (std::size_t r = 1; r < bytes.size(); ++r) {
+        next[r] = next[r - 1] + static_cast<std::size_t>(bytes[r - 1]);
+      }
+      const std::size_t first = chunk_begins_[c];
+      const std::size_t end = c + 1 < chunk_begins_.size() ? chunk_begins_[c + 1] : source_.size();
+      merged.resize((end - first) * column.bytes);
+      for (std::size_t k = first; k < end; ++k) {
+        std::size_t& from = next[static_cast<std::size_t>(source_[k])];
+        std::memcpy(merged.data() + (k - first) * column.bytes, all.data() + from, column.bytes);
+        from += column.bytes;
+      }
+      emit(merged.data(), merged.size());
+    }
+  }
+
+  /// On rank 0, @p visit receives every pair with carried state by (first id, second id), from
+  /// the process owning its first particle (@p stepper: this process's); a chunk at a time.
+  template <class Visit>
+  void slips(const Stepper& stepper, Visit&& visit) const {
+    for (std::size_t c = 0; c + 1 < cuts_.size(); ++c) {
+      std::vector<SlipRecord> mine;
+      const std::span<const std::uint32_t> chunk(rows_.data() + cuts_[c], cuts_[c + 1] - cuts_[c]);
+      std::size_t count = 0;
+      stepper.for_each_slip(chunk, [&](const SlipRecord&) { ++count; });
+      mine.reserve(count);
+      stepper.for_each_slip(chunk, [&](const SlipRecord& s) { mine.push_back(s); });
+      std::vector<std::int64_t> bytes;
+      const std::vector<SlipRecord> all = gathered(std::move(mine), true, &bytes);
+      if (world_rank() != 0) continue;
+      // Each process's pairs are in order, and a first particle's pairs all come from its owner.
+      std::vector<std::size_t> next(bytes.size(), 0), end(bytes.size(), 0);
+      for (std::size_t r = 0; r < bytes.size(); ++r) {
+        next[r] = r == 0 ? 0 : end[r - 1];
+        end[r] = next[r] + static_cast<std::size_t>(bytes[r]) / sizeof(SlipRecord);
+      }
+      while (true) {
+        std::size_t lowest = bytes.size();
+        for (std::size_t r = 0; r < bytes.size(); ++r) {
+          if (next[r] < end[r] &&
+              (lowest == bytes.size() || all[next[r]].first_id < all[next[lowest]].first_id)) {
+            lowest = r;
+          }
+        }
+        if (lowest == bytes.size()) break;
+        const std::int64_t first_id = all[next[lowest]].first_id;
+        while (next[lowest] < end[lowest] && all[next[lowest]].first_id == first_id) {
+          visit(static_cast<const SlipRecord&>(all[next[lowest]++]));
+        }
+      }
+    }
+  }
+
+  /// Rank 0's copy of @p values (this process's part's, one a particle) for every particle of
+  /// the run by id; empty elsewhere.
+  template <class T, class Allocator>
+  std::vector<T> by_id(const std::vector<T, Allocator>& values) const {
+    std::vector<T> all;
+    if (world_rank() == 0) all.reserve(total_);
+    column({reinterpret_cast<const char*>(values.data()), sizeof(T)},
+           [&](const char* data, std::size_t size) {
+             const std::size_t at = all.size();
+             all.resize(at + size / sizeof(T));
+             std::memcpy(all.data() + at, data, size);
+           });
+    return all;
+  }
+
+ private:
+  std::vector<std::uint32_t> rows_;
+  std::vector<std::size_t> cuts_;
+  std::vector<std::int32_t> source_;  ///< on rank 0: the process of each particle of the run, by id
+  std::vector<std::size_t> chunk_begins_;  ///< on rank 0: where each chunk starts in source_
+  std::uint64_t total_ = 0;
+};
+
 /// A contact of a VTK frame as it travels between processes (ContactRecord, flat).
 struct ContactBytes {
   std::int64_t id_i, id_j;
@@ -356,13 +510,9 @@ class PieceFrames {
   std::vector<double> coordination_, bond_count_, diameter_;
 };
 
-/// When a distributed run assembles the whole state on rank 0: during the run (each process
-/// keeps its part) or at its end (each frees its part once its share is packed).
-enum class Assembly { kMidRun, kAtEnd };
-
 /// A scene and a stepper holding the whole run's state: what rank 0 assembles from every
-/// process's particles to write a checkpoint and the end-of-run files with the observers of the
-/// run in one process.
+/// process's particles to write state snapshots and layer series with the observers of the run
+/// in one process (checkpoints and the end of the run are streamed from the parts instead).
 struct WholeRun {
   std::unique_ptr<Scene> scene;
   std::unique_ptr<Stepper> stepper;
@@ -501,8 +651,7 @@ class DistributedRun {
 
   /// On rank 0, the whole run's state assembled from every process's owned particles and pairs
   /// (each pair sent by the owner of its smaller id); elsewhere, nothing. Every process calls it.
-  WholeRun assemble(Assembly when = Assembly::kMidRun) {
-    const bool at_end = when == Assembly::kAtEnd;
+  WholeRun assemble() {
     const bool root = world_rank() == 0;
     StepperState state = part_.stepper->save_state(SavedArrays::kOmitted);
     std::vector<std::uint32_t> owned;
@@ -523,13 +672,9 @@ class DistributedRun {
           {list.build_positions(0)[k], list.build_positions(1)[k], list.build_positions(2)[k]});
     }
     part_.stepper->for_each_slip(owned, [&](const SlipRecord& s) { slips.push_back(s); });
-    // At the end each process frees its part as soon as it is read; rank 0 then takes the shares
-    // one kind at a time, each freed once used.
-    if (at_end) part_.stepper.reset();
     std::vector<char> records;
     records.reserve(owned.size() * record_bytes_ + kTransferUnit);  // padded in place
     for (const std::uint32_t k : owned) pack_particle(p, k, records);
-    if (at_end) part_.scene.reset();
     Particles all;
     if (const std::vector<char> all_records = gathered(std::move(records), true); root) {
       all = particles_from(all_records);
@@ -560,6 +705,123 @@ class DistributedRun {
     run.scene->particles = std::move(all);
     run.stepper = std::make_unique<Stepper>(*run.scene, std::move(whole));
     return run;
+  }
+
+  /// Write the whole run's checkpoint to @p path (rank 0) from every process's part, streamed by
+  /// id: the same bytes as the run in one process writes, and no process holds the whole run's
+  /// state. @p fingerprint and @p history as CheckpointFile's. Every process calls it.
+  void write_checkpoint(const std::string& path, std::uint64_t fingerprint,
+                        const std::string& history) const {
+    const IdStream order(part_.scene->particles, part_);
+    write_checkpoint(order, path, fingerprint, history);
+  }
+
+  /// The same, over @p order (an IdStream of this part).
+  void write_checkpoint(const IdStream& order, const std::string& path, std::uint64_t fingerprint,
+                        const std::string& history) const {
+    const Stepper& stepper = *part_.stepper;
+    StepperState state = stepper.save_state(SavedArrays::kOmitted);
+    state.contacts = contacts_;
+    state.bonds_formed = bonds_formed_;
+    state.bonds_broken = bonds_broken_;
+    state.removed = removed_;
+    std::uint64_t slips = 0;
+    stepper.for_each_slip(order.rows(), [&](const SlipRecord&) { ++slips; });
+    MPI_Allreduce(MPI_IN_PLACE, &slips, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+    DistributedParts parts;
+    parts.particles = order.total();
+    parts.slips = slips;
+    parts.column = [&order](PartColumn column, const Emit& emit) { order.column(column, emit); };
+    const NeighborList& list = stepper.neighbors();
+    const CheckpointView view{
+        fingerprint,
+        part_.scene->particles,
+        state,
+        history,
+        part_.scene->material_names,
+        {&list.build_positions(0), &list.build_positions(1), &list.build_positions(2)},
+        [&](const std::function<void(const SlipRecord&)>& visit) { order.slips(stepper, visit); },
+        std::make_shared<const std::vector<std::uint32_t>>(),
+        std::move(parts)};
+    together([&] {
+      if (world_rank() == 0) {
+        bondem::write_checkpoint(path, view);
+      } else {
+        serve_checkpoint(view);
+      }
+    });
+  }
+
+  /// What rank 0 writes and measures at the end of the run (or at a stop: the final state only,
+  /// with @p analysed false), gathered from every process's part, which each then frees: the
+  /// particles by id with the fields of a final state (and of the analysis), and per particle its
+  /// bonds (thermal runs) and, when @p analysed, its contacts and the bonded pairs. Every process
+  /// calls it; the part is gone afterwards.
+  struct EndState {
+    Particles particles;
+    std::vector<int> bonds, contacts;
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> bonded;
+    RunCounts counts;
+    double laser_energy = 0.0, laser_missed = 0.0;
+  };
+  EndState finish(const IdStream& order, bool analysed) {
+    Particles& p = part_.scene->particles;
+    const Stepper& stepper = *part_.stepper;
+    const bool thermal = p.thermal();
+    EndState end;
+    end.counts.particles = order.total();
+    end.counts.neighbor_builds = stepper.neighbors().build_count();
+    end.counts.contacts = contacts_;
+    end.counts.bonds_formed = bonds_formed_;
+    end.counts.bonds_broken = bonds_broken_;
+    end.laser_energy = stepper.laser_energy();
+    end.laser_missed = stepper.laser_missed();
+    // An owned particle's partners all lie in the part (the halo), so its counts are the run's.
+    std::vector<int> bonds = thermal ? bond_counts(p, stepper) : std::vector<int>{};
+    std::vector<int> contacts =
+        analysed ? contact_counts(p, stepper.neighbors()) : std::vector<int>{};
+    std::vector<std::int64_t> bonded_ids;  // each pair from the owner of its smaller id
+    if (analysed) {
+      for (const auto& [i, j] : bonded_pairs(stepper)) {
+        if (!part_.owns(std::min(p.id[i], p.id[j]))) continue;
+        bonded_ids.insert(bonded_ids.end(), {p.id[i], p.id[j]});
+      }
+    }
+    part_.stepper.reset();
+    const bool root = world_rank() == 0;
+    Particles& all = end.particles;
+    all.temperatures_tracked = thermal;
+    for (const ParticleField& field : kParticleFields) {
+      const bool listed = has(field, kLastGood) ||
+                          (thermal && (std::string_view(field.name) == "temperature" ||
+                                       std::string_view(field.name) == "peak_temperature"));
+      if (!listed) continue;
+      std::visit(
+          [&](auto member) {
+            auto& values = p.*member;
+            std::vector<typename std::decay_t<decltype(values)>::value_type> every =
+                order.by_id(values);
+            (all.*member).assign(every.begin(), every.end());
+            std::decay_t<decltype(values)>().swap(values);  // freed as soon as sent
+          },
+          field.member);
+    }
+    if (thermal) end.bonds = order.by_id(bonds);
+    if (analysed) end.contacts = order.by_id(contacts);
+    std::vector<int>().swap(bonds);
+    std::vector<int>().swap(contacts);
+    part_.scene.reset();
+    const std::vector<std::int64_t> pairs = gathered(std::move(bonded_ids), true);
+    if (root) {
+      const auto index_of = [&](std::int64_t id) {
+        return static_cast<std::uint32_t>(std::lower_bound(all.id.begin(), all.id.end(), id) -
+                                          all.id.begin());
+      };
+      for (std::size_t k = 0; k + 1 < pairs.size(); k += 2) {
+        end.bonded.emplace_back(index_of(pairs[k]), index_of(pairs[k + 1]));
+      }
+    }
+    return end;
   }
 
   const RankPart& part() const { return part_; }
@@ -1113,6 +1375,9 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
   scene.reset();
   state = StepperState{};
   const auto owns = [&](std::int64_t id) { return run.part().owns(id); };
+  // Kept for the end of the run, when the parts are gone.
+  const std::vector<std::string> names = run.part().scene->material_names;
+  const Domain domain = run.part().scene->domain;
   if (!plan.restarting) {
     first_totals = run.totals();
     if (frames) frames->write(*run.part().scene, *run.part().stepper, owns, run.loads());
@@ -1128,7 +1393,6 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
       },
       description.history_fields);
   if (plan.restarting) history.continue_from(std::move(history_text));
-  CheckpointFile checkpoint(plan.checkpoint_path, plan.fingerprint, plan.checkpoint_every, history);
   Progress progress(log, options.quiet || !root);
   // Each process keeps its own particles' state at every history row; on a blow-up rank 0
   // writes them all, by id, as the run in one process does.
@@ -1178,8 +1442,8 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
       if (plan.restarting) layers->resume(resumed_at);
     });
   }
-  const auto at_whole_run = [&](auto&& use, Assembly when = Assembly::kMidRun) {
-    WholeRun whole = run.assemble(when);
+  const auto at_whole_run = [&](auto&& use) {
+    WholeRun whole = run.assemble();
     together([&] {
       if (!root) return;
       Simulation simulation(*whole.scene, *whole.stepper, plan.steps);
@@ -1213,15 +1477,16 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
           description.layers ? layers_through(*description.layers, description.time_step, step) : 0;
       const bool layer_due = layers_due > layers_measured;
       const bool checkpoint_due = step % plan.checkpoint_every == 0 && !at_end;
-      if (state_due || layer_due || checkpoint_due) {
+      if (state_due || layer_due) {
         // In the order of the observers of a run in one process.
         at_whole_run([&](const Simulation& s) {
           if (state_due) states->after_step(s);
           if (layer_due) layers->after_step(s);
-          if (checkpoint_due) checkpoint.after_step(s);
         });
         if (layer_due) layers_measured = layers_due;
       }
+      if (checkpoint_due)
+        run.write_checkpoint(plan.checkpoint_path, plan.fingerprint, history.text());
       if (root) {
         Simulation rank_view(*run.part().scene, *run.part().stepper, plan.steps);
         progress.after_step(rank_view);
@@ -1231,13 +1496,23 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
         if (frames && step % frames->every() != 0) {
           frames->write(*run.part().scene, *run.part().stepper, owns, run.loads());
         }
-        at_whole_run([&](const Simulation& s) {
+        // As the observers of a run in one process: the checkpoint, the final state, the
+        // progress line; streamed from the parts.
+        {
           const Interruption why{StopReason::kStopRequested, nullptr};
-          checkpoint.interrupted(s, why);
-          RunAnalysis unused(description);
-          EndOfRunFiles(plan.directory, unused).interrupted(s, why);
-          progress.interrupted(s, why);
-        });
+          const IdStream order(run.part().scene->particles, run.part());
+          run.write_checkpoint(order, plan.checkpoint_path, plan.fingerprint, history.text());
+          if (root)
+            progress.interrupted(Simulation(*run.part().scene, *run.part().stepper, plan.steps),
+                                 why);
+          const DistributedRun::EndState end = run.finish(order, false);
+          together([&] {
+            if (root) {
+              write_final_state(end.particles, names, (plan.directory / "final_state.csv").string(),
+                                end.bonds);
+            }
+          });
+        }
         std::ostringstream message;
         message << "interrupted at step " << step << " (t = " << run.part().stepper->time()
                 << " s); checkpoint written. Resume with: "
@@ -1282,25 +1557,34 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
 
   RunResult result;
   note_memory("steps done");
-  at_whole_run(
-      [&](const Simulation& s) {
-        progress.finish(s);
-        checkpoint.finish(s);
-        RunAnalysis analysis(description);
-        analysis.finish(s);
-        EndOfRunFiles(plan.directory, analysis).finish(s);
-        RunEnd end;
-        end.finished = true;
-        end.first_step = plan.first_step;
-        end.step = plan.steps;
-        end.loop_seconds = loop_seconds;
-        result = collect_result(end, s, *analysis.figures());
-      },
-      Assembly::kAtEnd);
+  const std::size_t owned_particles = run.part().owned_ids.size();
+  // As the observers of a run in one process: the progress line, the checkpoint, the analysis and
+  // the end-of-run files; streamed from the parts, which are freed as they are read.
+  if (root) progress.finish(Simulation(*run.part().scene, *run.part().stepper, plan.steps));
+  const IdStream order(run.part().scene->particles, run.part());
+  run.write_checkpoint(order, plan.checkpoint_path, plan.fingerprint, history.text());
+  note_memory("checkpoint written");
+  {
+    const DistributedRun::EndState end = run.finish(order, true);
+    note_memory("end state gathered");
+    together([&] {
+      if (!root) return;
+      const RunFigures figures =
+          analyse_run(description, AnalysedState{end.particles, domain, end.contacts, end.bonded,
+                                                 end.laser_energy, end.laser_missed});
+      write_end_of_run_files(plan.directory, end.particles, names, end.bonds, figures);
+      RunEnd run_end;
+      run_end.finished = true;
+      run_end.first_step = plan.first_step;
+      run_end.step = plan.steps;
+      run_end.loop_seconds = loop_seconds;
+      result = collect_result(run_end, end.counts, figures);
+    });
+  }
   note_memory("end files written");
   if (!root) {
     result.steps = plan.steps - plan.first_step;
-    result.particles = run.part().owned_ids.size();
+    result.particles = owned_particles;
     result.wall_seconds = loop_seconds;
   }
   return result;

@@ -502,14 +502,19 @@ void EndOfRunFiles::interrupted(const Simulation& simulation, const Interruption
 
 void EndOfRunFiles::finish(const Simulation& simulation) {
   if (!analysis_.figures()) throw std::logic_error("EndOfRunFiles: attach it after RunAnalysis");
-  const RunFigures& figures = *analysis_.figures();
+  write_end_of_run_files(directory_, simulation.scene().particles,
+                         simulation.scene().material_names, final_state_bonds(simulation),
+                         *analysis_.figures());
+}
+
+void write_end_of_run_files(const std::filesystem::path& directory, const Particles& p,
+                            const std::vector<std::string>& material_names,
+                            const std::vector<int>& bonds, const RunFigures& figures) {
   OutputSet end_of_run(
-      {directory_ / "final_state.csv", directory_ / "clusters.csv", directory_ / "layer.csv"});
-  const Particles& p = simulation.scene().particles;
-  write_final_state(p, simulation.scene().material_names, (directory_ / "final_state.csv").string(),
-                    final_state_bonds(simulation));
-  write_clusters(figures.clusters, (directory_ / "clusters.csv").string());
-  if (figures.layer) write_layer(*figures.layer, (directory_ / "layer.csv").string());
+      {directory / "final_state.csv", directory / "clusters.csv", directory / "layer.csv"});
+  write_final_state(p, material_names, (directory / "final_state.csv").string(), bonds);
+  write_clusters(figures.clusters, (directory / "clusters.csv").string());
+  if (figures.layer) write_layer(*figures.layer, (directory / "layer.csv").string());
   end_of_run.keep();
 }
 

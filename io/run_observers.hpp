@@ -28,6 +28,13 @@ namespace bondem {
 void write_final_state(const Particles& p, const std::vector<std::string>& material_names,
                        const std::string& path, const std::vector<int>& bonds = {});
 
+/// The end-of-run files of @p figures and the final state @p p (with @p bonds as
+/// write_final_state()) in @p directory: final_state.csv, clusters.csv and, with a layer,
+/// layer.csv; all of them or, on an error, none.
+void write_end_of_run_files(const std::filesystem::path& directory, const Particles& p,
+                            const std::vector<std::string>& material_names,
+                            const std::vector<int>& bonds, const RunFigures& figures);
+
 /// history.csv, live: truncated when opened, then appended and flushed piece by piece, so that a
 /// run can be watched (and plotted) while it runs. Feed it as History's sink.
 class HistoryFile {

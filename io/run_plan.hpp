@@ -69,7 +69,19 @@ std::string resume_command(const RunOptions& options, const Case& description,
 /// The message of a blow-up report: @p e, the likely cause, and where the last good state is.
 std::string blow_up_message(const BlowUpError& e, const Case& description, const RunPlan& plan);
 
-/// What a finished run reports: @p end of @p simulation, with the figures of its analysis.
+/// The counts of a finished run that its result reports besides its figures.
+struct RunCounts {
+  std::size_t particles = 0;
+  std::int64_t neighbor_builds = 0;
+  ContactSummary contacts;  ///< of the last step
+  std::int64_t bonds_formed = 0;
+  std::int64_t bonds_broken = 0;
+};
+
+/// What a finished run reports: @p end, its @p counts, and the figures of its analysis.
+RunResult collect_result(const RunEnd& end, const RunCounts& counts, const RunFigures& figures);
+
+/// The same, with the counts of @p simulation.
 RunResult collect_result(const RunEnd& end, const Simulation& simulation,
                          const RunFigures& figures);
 

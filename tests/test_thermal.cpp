@@ -556,7 +556,8 @@ std::size_t index_of(const Particles& p, std::int64_t id) {
   return static_cast<std::size_t>(std::find(p.id.begin(), p.id.end(), id) - p.id.begin());
 }
 
-int bonded_pairs(const Stepper& stepper) {
+/// Bond flags set in the stepper's pair slots.
+int bond_flags(const Stepper& stepper) {
   const StaggeredVector<std::uint8_t>& bonded = stepper.pair_forces().bonded;
   return static_cast<int>(std::count(bonded.begin(), bonded.end(), std::uint8_t{1}));
 }
@@ -572,7 +573,7 @@ TEST(ThermalBonding, PairBondsOnlyAfterCriterionHolds) {
   Stepper stepper(scene);
   const Particles& p = scene.particles;
   ASSERT_EQ(stepper.contacts().contacts, 1u);
-  ASSERT_EQ(bonded_pairs(stepper), 0);
+  ASSERT_EQ(bond_flags(stepper), 0);
   const double crossing = stack.tau * std::log(6.0) / dt;  // in steps, ~2700
   ASSERT_GT(crossing, 1000.0);
   std::vector<double> cold{p.temperature[index_of(p, 1)]};  // after each step
@@ -582,7 +583,7 @@ TEST(ThermalBonding, PairBondsOnlyAfterCriterionHolds) {
     stepper.step();
     cold.push_back(p.temperature[index_of(p, 1)]);
     ASSERT_EQ(stepper.contacts().contacts, 1u) << "step " << s;
-    const int bonded = bonded_pairs(stepper);
+    const int bonded = bond_flags(stepper);
     if (first_bonded < 0 && bonded == 1) first_bonded = s;
     ASSERT_EQ(bonded, first_bonded < 0 ? 0 : 1) << "step " << s;
   }
@@ -614,16 +615,16 @@ TEST(ThermalBonding, SolidifiedNeckSurvivesCooling) {
   Scene scene = build_scene(c);
   Stepper stepper(scene);
   const Particles& p = scene.particles;
-  ASSERT_EQ(bonded_pairs(stepper), 1);
+  ASSERT_EQ(bond_flags(stepper), 1);
   ASSERT_EQ(stepper.bonds_formed(), 1);
   int s = 0;
   for (; s < 20000 && std::max(p.temperature[0], p.temperature[1]) > 600.0; ++s) {
     stepper.step();
     ASSERT_EQ(stepper.contacts().contacts, 1u) << "step " << s;
-    ASSERT_EQ(bonded_pairs(stepper), 1) << "step " << s;
+    ASSERT_EQ(bond_flags(stepper), 1) << "step " << s;
   }
   for (int extra = 0; extra < 500; ++extra) stepper.step();  // well below T_bond
-  EXPECT_EQ(bonded_pairs(stepper), 1);
+  EXPECT_EQ(bond_flags(stepper), 1);
   EXPECT_LT(std::max(p.temperature[0], p.temperature[1]), 600.0);
   EXPECT_EQ(stepper.bonds_formed(), 1);
   EXPECT_EQ(stepper.bonds_broken(), 0);

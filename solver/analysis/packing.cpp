@@ -70,16 +70,24 @@ double clipped_volume(const Eigen::Vector3d& centre, double r, const Box& region
 
 }  // namespace
 
-PackingReport analyse_packing(const Particles& p, const NeighborList& list, const Box& region,
-                              const Domain& domain) {
-  const std::size_t n = p.size();
-  std::vector<int> contacts(n, 0);
+std::vector<int> contact_counts(const Particles& p, const NeighborList& list) {
+  std::vector<int> contacts(p.size(), 0);
   list.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
     if (list.separation(p, i, j, k).norm() < p.radius[i] + p.radius[j]) {
       ++contacts[i];
       ++contacts[j];
     }
   });
+  return contacts;
+}
+
+PackingReport analyse_packing(const Particles& p, const NeighborList& list, const Box& region,
+                              const Domain& domain) {
+  return analyse_packing(p, contact_counts(p, list), region, domain);
+}
+
+PackingReport analyse_packing(const Particles& p, const std::vector<int>& contacts,
+                              const Box& region, const Domain& domain) {
   // Sum in id order, so that the result does not depend on how the particles are stored.
   const std::vector<std::uint32_t> by_id = p.order_by_id();
 

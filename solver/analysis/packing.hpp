@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "geometry/box.hpp"
 #include "geometry/domain.hpp"
@@ -40,12 +41,19 @@ struct PackingReport {
 
 /// Solid fraction of @p region: the volume of every sphere inside it, clipped exactly by
 /// sphere_box_volume (periodic images across @p domain's periodic axes included), over the region
-/// volume; and the mean coordination number of the particles centred in it, from the overlaps in
-/// @p list. Both are left out, with the reason, when the region is empty or inverted, spans fewer
-/// than kMinRegionDiameters mean diameters on an axis, or holds fewer than kMinRegionParticles
-/// centres. Sums run in id order: the result does not depend on particle order.
+/// volume; and the mean coordination number of the particles centred in it, from @p contacts
+/// (per particle, contact_counts()). Both are left out, with the reason, when the region is empty
+/// or inverted, spans fewer than kMinRegionDiameters mean diameters on an axis, or holds fewer than
+/// kMinRegionParticles centres. Sums run in id order: the result does not depend on particle order.
+PackingReport analyse_packing(const Particles& p, const std::vector<int>& contacts,
+                              const Box& region, const Domain& domain);
+
+/// The same, with the contacts of the overlaps in @p list.
 PackingReport analyse_packing(const Particles& p, const NeighborList& list, const Box& region,
                               const Domain& domain);
+
+/// Per particle of @p p, the partners it overlaps among the pairs of @p list.
+std::vector<int> contact_counts(const Particles& p, const NeighborList& list);
 
 /// Bed region: @p box shrunk by @p margin on every side, its top lowered to @p margin below the
 /// highest particle top, so that wall and free-surface layers are excluded. It comes out empty

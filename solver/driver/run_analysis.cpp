@@ -17,9 +17,6 @@ std::vector<int> bond_counts(const Particles& p, const Stepper& stepper) {
   return counts;
 }
 
-namespace {
-
-/// Pairs of particle indices bonded in the stepper's last force evaluation.
 std::vector<std::pair<std::uint32_t, std::uint32_t>> bonded_pairs(const Stepper& stepper) {
   std::vector<std::pair<std::uint32_t, std::uint32_t>> bonded;
   stepper.neighbors().for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
@@ -30,25 +27,27 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> bonded_pairs(const Stepper&
   return bonded;
 }
 
+namespace {
+
 /// Solid fraction and coordination in the case's region, or in the bed below its surface.
-void measure_packing(const Case& description, const Scene& scene, const Stepper& stepper,
-                     RunFigures& figures) {
+void measure_packing(const Case& description, const AnalysedState& state, RunFigures& figures) {
+  const Particles& p = state.particles;
   double max_radius = 0.0;
-  for (const double r : scene.particles.radius) max_radius = std::max(max_radius, r);
+  for (const double r : p.radius) max_radius = std::max(max_radius, r);
   figures.packing_region =
       description.analysis_region
           ? *description.analysis_region
-          : bed_region(scene.particles, Box{scene.domain.min, scene.domain.max}, 4.0 * max_radius);
-  figures.packing =
-      analyse_packing(scene.particles, stepper.neighbors(), figures.packing_region, scene.domain);
+          : bed_region(p, Box{state.domain.min, state.domain.max}, 4.0 * max_radius);
+  figures.packing = analyse_packing(p, state.contacts, figures.packing_region, state.domain);
 }
 
 /// Clusters: bonded agglomerates of two or more particles, and their size distribution against
 /// the primary particles'. Particles with no bond are counted apart, as unbonded. Only the
 /// agglomerates are kept (a cluster per particle would stay in memory to the end of the run), and
 /// without a bonded pair there are none: every particle is a singleton.
-void measure_clusters(const Particles& p, const Stepper& stepper, RunFigures& figures) {
-  const std::vector<std::pair<std::uint32_t, std::uint32_t>> bonded = bonded_pairs(stepper);
+void measure_clusters(const Particles& p,
+                      const std::vector<std::pair<std::uint32_t, std::uint32_t>>& bonded,
+                      RunFigures& figures) {
   ClusterReport& agglomerates = figures.clusters;
   figures.unbonded = p.size();
   if (!bonded.empty()) {
@@ -71,11 +70,12 @@ void measure_clusters(const Particles& p, const Stepper& stepper, RunFigures& fi
 
 /// Heat received and the heat-affected band: particles that reached the bonding temperature (or,
 /// without that criterion, the hottest tenth of the temperature rise).
-ThermalReport measure_heat(const Case& description, const Particles& p, const Stepper& stepper,
+ThermalReport measure_heat(const Case& description, const AnalysedState& state,
                            std::size_t agglomerates) {
+  const Particles& p = state.particles;
   ThermalReport thermal;
-  thermal.laser_energy = stepper.laser_energy();
-  thermal.laser_missed = stepper.laser_missed();
+  thermal.laser_energy = state.laser_energy;
+  thermal.laser_missed = state.laser_missed;
   thermal.final_max_temperature = *std::max_element(p.temperature.begin(), p.temperature.end());
   thermal.clusters_of_two_or_more = agglomerates;
   double threshold = description.contact.bond.temperature;
@@ -150,16 +150,23 @@ LayerSnapshot measure_series_layer(const LayerSeries& series, std::size_t index,
   return snapshot;
 }
 
+RunFigures analyse_run(const Case& description, const AnalysedState& state) {
+  const Particles& p = state.particles;
+  RunFigures figures;
+  measure_packing(description, state, figures);
+  measure_clusters(p, state.bonded, figures);
+  if (p.thermal()) figures.thermal = measure_heat(description, state, figures.agglomerates);
+  if (description.layer) figures.layer = measure_layer(p, *description.layer);
+  return figures;
+}
+
 RunFigures analyse_run(const Case& description, const Simulation& simulation) {
   const Scene& scene = simulation.scene();
   const Stepper& stepper = simulation.stepper();
-  const Particles& p = scene.particles;
-  RunFigures figures;
-  measure_packing(description, scene, stepper, figures);
-  measure_clusters(p, stepper, figures);
-  if (p.thermal()) figures.thermal = measure_heat(description, p, stepper, figures.agglomerates);
-  if (description.layer) figures.layer = measure_layer(p, *description.layer);
-  return figures;
+  const std::vector<int> contacts = contact_counts(scene.particles, stepper.neighbors());
+  const std::vector<std::pair<std::uint32_t, std::uint32_t>> bonded = bonded_pairs(stepper);
+  return analyse_run(description, AnalysedState{scene.particles, scene.domain, contacts, bonded,
+                                                stepper.laser_energy(), stepper.laser_missed()});
 }
 
 }  // namespace bondem

@@ -3,7 +3,9 @@
 /// What a finished run is measured for: packing, bonded clusters, the spread layer, heat.
 
 #include <cstddef>
+#include <cstdint>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "geometry/box.hpp"
@@ -64,9 +66,25 @@ LayerSnapshot measure_series_layer(const LayerSeries& series, std::size_t index,
 /// Bonds per particle in the stepper's last force evaluation.
 std::vector<int> bond_counts(const Particles& p, const Stepper& stepper);
 
-/// The figures of the state @p simulation reached, for @p description (its analysis region,
-/// layer, bond criterion, laser).
+/// What analyse_run() measures, without a stepper: what a distributed run gathers from its parts.
+struct AnalysedState {
+  const Particles& particles;  ///< id, position, radius and, in thermal runs, temperatures
+  const Domain& domain;
+  const std::vector<int>& contacts;  ///< per particle, the partners it overlaps
+  /// The bonded pairs, by particle index.
+  const std::vector<std::pair<std::uint32_t, std::uint32_t>>& bonded;
+  double laser_energy = 0.0;  ///< absorbed by the particles so far [J]
+  double laser_missed = 0.0;  ///< absorbable energy that fell on no particle so far [J]
+};
+
+/// The figures of @p state for @p description (its analysis region, layer, bond criterion, laser).
+RunFigures analyse_run(const Case& description, const AnalysedState& state);
+
+/// The figures of the state @p simulation reached.
 RunFigures analyse_run(const Case& description, const Simulation& simulation);
+
+/// Pairs of particle indices bonded in the stepper's last force evaluation.
+std::vector<std::pair<std::uint32_t, std::uint32_t>> bonded_pairs(const Stepper& stepper);
 
 /// Measures the run at its end (finish() only: an interrupted run has no figures).
 class RunAnalysis : public Observer {
