@@ -1498,6 +1498,7 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
         }
         // As the observers of a run in one process: the checkpoint, the final state, the
         // progress line; streamed from the parts.
+        const double stopped_at = run.part().stepper->time();  // the part is freed below
         {
           const Interruption why{StopReason::kStopRequested, nullptr};
           const IdStream order(run.part().scene->particles, run.part());
@@ -1514,7 +1515,7 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
           });
         }
         std::ostringstream message;
-        message << "interrupted at step " << step << " (t = " << run.part().stepper->time()
+        message << "interrupted at step " << step << " (t = " << stopped_at
                 << " s); checkpoint written. Resume with: "
                 << resume_command(options, description, plan.directory, plan.checkpoint_path);
         throw RunInterrupted(message.str());
