@@ -1062,22 +1062,36 @@ class DistributedRun {
           pack_particle(p, k, leaving[static_cast<std::size_t>(new_owner[k])]);
         }
       }
+      // The pairs' state is most of what a migration carries (72 B a pair with a spring): the
+      // kept pairs' vector is sized once, counted first, with room for the pairs that arrive
+      // and for those of the ghosts take_part() adds (about as many as the old ghosts led). A
+      // vector grown by doubling would hold twice as much at its last copy.
       std::vector<std::vector<SlipRecord>> leaving_slips(processes);
+      std::size_t kept_pairs = 0, ghost_pairs = 0;
       for (std::uint32_t k = 0; k < p.size(); ++k) {
-        if (new_owner[k] < 0) continue;  // a ghost's pairs: its owner sends them
-        std::vector<SlipRecord>& to = new_owner[k] == rank
-                                          ? owned_slips
-                                          : leaving_slips[static_cast<std::size_t>(new_owner[k])];
-        part_.stepper->for_each_slip(std::span(&k, 1),
-                                     [&](const SlipRecord& slip) { to.push_back(slip); });
+        std::size_t& counted = new_owner[k] == rank ? kept_pairs : ghost_pairs;
+        if (new_owner[k] == rank || new_owner[k] < 0) {
+          part_.stepper->for_each_slip(std::span(&k, 1), [&](const SlipRecord&) { ++counted; });
+          continue;
+        }
+        part_.stepper->for_each_slip(std::span(&k, 1), [&](const SlipRecord& slip) {
+          leaving_slips[static_cast<std::size_t>(new_owner[k])].push_back(slip);
+        });
       }
+      const std::vector<SlipRecord> arrived_slips = exchanged(leaving_slips);
+      leaving_slips = {};
+      owned_slips.reserve(kept_pairs + arrived_slips.size() + ghost_pairs + ghost_pairs / 4);
+      for (std::uint32_t k = 0; k < p.size(); ++k) {
+        if (new_owner[k] != rank) continue;  // a ghost's pairs: its owner sends them
+        part_.stepper->for_each_slip(std::span(&k, 1),
+                                     [&](const SlipRecord& slip) { owned_slips.push_back(slip); });
+      }
+      owned_slips.insert(owned_slips.end(), arrived_slips.begin(), arrived_slips.end());
       // The old part's list and pairs are read: freed before anything else is built.
       state = part_.stepper->save_state(SavedArrays::kOmitted);
       part_.stepper.reset();
       std::vector<std::int64_t> counts;
       const std::vector<char> arrived = bondem::exchanged(leaving, counts);
-      const std::vector<SlipRecord> arrived_slips = exchanged(leaving_slips);
-      owned_slips.insert(owned_slips.end(), arrived_slips.begin(), arrived_slips.end());
       next = std::move(part_.scene->particles);  // the kept ones, in place
       part_.scene.reset();
       next.permute(kept);
