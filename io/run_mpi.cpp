@@ -1047,7 +1047,8 @@ class DistributedRun {
 
     // 1. Each owned particle to the owner of its position, with the pairs it leads.
     Particles next;
-    std::vector<SlipRecord> owned_slips;  // of the pairs the particles owned from now on lead
+    std::vector<SlipRecord> arrived_slips;  // of the pairs the arriving particles lead
+    Stepper::CarriedPairs kept_pairs;       // of the pairs the kept particles lead
     StepperState state;
     {
       std::vector<int> new_owner(p.size(), -1);
@@ -1062,33 +1063,29 @@ class DistributedRun {
           pack_particle(p, k, leaving[static_cast<std::size_t>(new_owner[k])]);
         }
       }
-      // The pairs' state is most of what a migration carries (72 B a pair with a spring): the
-      // kept pairs' vector is sized once, counted first, with room for the pairs that arrive
-      // and for those of the ghosts take_part() adds (about as many as the old ghosts led). A
-      // vector grown by doubling would hold twice as much at its last copy.
+      // The pairs the leaving particles lead travel as records; the kept ones' stay in the old
+      // stepper's arrays, taken out by ids (72-B records of every kept pair would double what a
+      // migration holds: 1.5 M pairs with a spring a process at 10^6).
       std::vector<std::vector<SlipRecord>> leaving_slips(processes);
-      std::size_t kept_pairs = 0, ghost_pairs = 0;
+      std::vector<std::int64_t> kept_ids;
       for (std::uint32_t k = 0; k < p.size(); ++k) {
-        std::size_t& counted = new_owner[k] == rank ? kept_pairs : ghost_pairs;
-        if (new_owner[k] == rank || new_owner[k] < 0) {
-          part_.stepper->for_each_slip(std::span(&k, 1), [&](const SlipRecord&) { ++counted; });
+        if (new_owner[k] < 0) continue;  // a ghost's pairs: its owner sends them
+        if (new_owner[k] == rank) {
+          kept_ids.push_back(p.id[k]);
           continue;
         }
         part_.stepper->for_each_slip(std::span(&k, 1), [&](const SlipRecord& slip) {
           leaving_slips[static_cast<std::size_t>(new_owner[k])].push_back(slip);
         });
       }
-      const std::vector<SlipRecord> arrived_slips = exchanged(leaving_slips);
+      arrived_slips = exchanged(leaving_slips);
       leaving_slips = {};
-      owned_slips.reserve(kept_pairs + arrived_slips.size() + ghost_pairs + ghost_pairs / 4);
-      for (std::uint32_t k = 0; k < p.size(); ++k) {
-        if (new_owner[k] != rank) continue;  // a ghost's pairs: its owner sends them
-        part_.stepper->for_each_slip(std::span(&k, 1),
-                                     [&](const SlipRecord& slip) { owned_slips.push_back(slip); });
-      }
-      owned_slips.insert(owned_slips.end(), arrived_slips.begin(), arrived_slips.end());
+      std::sort(kept_ids.begin(), kept_ids.end());
       // The old part's list and pairs are read: freed before anything else is built.
       state = part_.stepper->save_state(SavedArrays::kOmitted);
+      kept_pairs = part_.stepper->take_pairs([&](std::int64_t id) {
+        return std::binary_search(kept_ids.begin(), kept_ids.end(), id);
+      });
       part_.stepper.reset();
       std::vector<std::int64_t> counts;
       const std::vector<char> arrived = bondem::exchanged(leaving, counts);
@@ -1107,18 +1104,20 @@ class DistributedRun {
     const std::size_t owned = next.size();
     ++state.list.builds;  // the step's
     state.removed = removed_;
-    take_part(std::move(next), owned, std::move(owned_slips), std::move(state));
+    take_part(std::move(next), owned, std::move(arrived_slips), std::move(state), 0,
+              std::move(kept_pairs));
     return true;
   }
 
   /// With the first @p owned particles of @p next this process's own from now on: sends every
   /// other process its particles in their halos, whole, with the state of the pairs of
-  /// @p owned_slips they lead; appends theirs as ghosts; and steps the new part, restored from
-  /// @p state (a rebuild: its list built at these positions, the pairs' state by ids) or, without
-  /// one, fresh (the initial pairs of the frame, the initial forces), a stream's next particle
-  /// then taking @p next_particle_id.
+  /// @p owned_slips and @p kept_pairs they lead; appends theirs as ghosts; and steps the new
+  /// part, restored from @p state (a rebuild: its list built at these positions, the pairs'
+  /// state by ids) or, without one, fresh (the initial pairs of the frame, the initial forces), a
+  /// stream's next particle then taking @p next_particle_id.
   void take_part(Particles next, std::size_t owned, std::vector<SlipRecord> owned_slips,
-                 std::optional<StepperState> state, std::int64_t next_particle_id = 0) {
+                 std::optional<StepperState> state, std::int64_t next_particle_id = 0,
+                 Stepper::CarriedPairs kept_pairs = {}) {
     const int size = world_size();
     const int rank = world_rank();
     const auto processes = static_cast<std::size_t>(size);
@@ -1143,11 +1142,18 @@ class DistributedRun {
           pack_particle(next, k, ghost_records[ur]);
           sent[k] = 1;
         }
+        const auto leader_sent = [&](std::int64_t first_id) {
+          return sent[std::lower_bound(owned_index.begin(), owned_index.end(),
+                                       std::pair(first_id, 0U))
+                          ->second] != 0;
+        };
         for (const SlipRecord& slip : owned_slips) {
-          const std::uint32_t k =
-              std::lower_bound(owned_index.begin(), owned_index.end(), std::pair(slip.first_id, 0U))
-                  ->second;
-          if (sent[k] != 0) ghost_slips[ur].push_back(slip);
+          if (leader_sent(slip.first_id)) ghost_slips[ur].push_back(slip);
+        }
+        for (std::size_t n = 0; n < kept_pairs.keys.size(); ++n) {
+          if (leader_sent(kept_pairs.keys[n].first_id)) {
+            ghost_slips[ur].push_back(kept_pairs.record(n));
+          }
         }
       }
       const std::vector<char> ghosts_arrived = bondem::exchanged(ghost_records, counts);
@@ -1181,7 +1187,8 @@ class DistributedRun {
     fresh.owned_ids.assign(ids.begin(), ids.begin() + static_cast<std::ptrdiff_t>(owned));
     std::sort(fresh.owned_ids.begin(), fresh.owned_ids.end());
     if (state) {
-      fresh.stepper = std::make_unique<Stepper>(*fresh.scene, std::move(*state));
+      fresh.stepper =
+          std::make_unique<Stepper>(*fresh.scene, std::move(*state), std::move(kept_pairs));
       fresh.stepper->count_only(fresh.owned_ids);
     } else {
       // A fresh list build may reorder the particles (Scene::reorder_interval): the refresh

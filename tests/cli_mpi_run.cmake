@@ -1,6 +1,7 @@
 # `mpirun -np PROCESSES bondem run` against the run in one process: the same bytes.
 # With PROCESSES 0 it writes the references (the run in one process, the fixture of the others).
-# Each case is run into WORK/<case>_<processes>; every output is compared with the reference's:
+# Each case is run into WORK/<case>_<processes>; every output is compared with the reference's,
+# and so is the run's printed summary (summary.txt: the end-of-run figures, less the timings):
 #   pour       tests/cases/storage_order.yaml: 1 100 frictional spheres thrown at a floor across
 #              periodic x and y, pushed by a moving blade, every contact bonding; a checkpoint
 #              midway, VTK frames every 0.6 ms (on PROCESSES processes, one piece a process; they
@@ -78,7 +79,7 @@ set(drum_case ${CASES}/rotating_drum_ci.yaml)
 set(drum_options --set time.end=0.04 --set output.checkpoint_interval=0.02)
 set(outputs history.csv final_state.csv last_good_state.csv checkpoint.bin clusters.csv layer.csv
             state_000000.csv state_000001.csv state_000003.csv layers.csv layer_001.csv
-            layer_002.csv)
+            layer_002.csv summary.txt)
 
 # Open MPI refuses root without these (CI runs as root).
 set(ENV{OMPI_ALLOW_RUN_AS_ROOT} 1)
@@ -101,6 +102,17 @@ function(run_on processes)
   if(NOT status EQUAL expected_status)
     message(FATAL_ERROR "'${command}' exited with ${status}: ${err}")
   endif()
+  set(run_output "${out}" PARENT_SCOPE)
+endfunction()
+
+# The last run's printed summary into `directory`/summary.txt, without what depends on the
+# machine, the directory, the threads or where the run resumed (the steps it took): the
+# end-of-run figures (packing, clusters, heat) are in no file.
+function(write_summary directory)
+  string(REGEX REPLACE
+         "(output_directory|threads|wall_time|particle_steps_per_second|steps) = [^\n]*\n" ""
+         summary "${run_output}")
+  file(WRITE ${directory}/summary.txt "${summary}")
 endfunction()
 
 # Every output of the reference run of `name` must be in `directory` with the same bytes.
@@ -122,6 +134,7 @@ foreach(name pour spreading thermal migration leaving laser drum stream stage)
   set(directory ${WORK}/${name}_${PROCESSES})
   file(REMOVE_RECURSE ${directory})
   run_on(${PROCESSES} ${${name}_case} ${${name}_options} --output ${directory})
+  write_summary(${directory})
   if(PROCESSES EQUAL 0)
     if(NOT EXISTS ${directory}/checkpoint.bin)
       message(FATAL_ERROR "${name}: the reference run wrote no checkpoint")
@@ -178,6 +191,7 @@ if(NOT PROCESSES EQUAL 0)
   run_on(${PROCESSES} ${pour_case} ${halfway} --set time.end=0.0012 --output ${directory})
   run_on(${next} ${pour_case} ${pour_options} --output ${directory}
          --restart ${directory}/checkpoint.bin)
+  write_summary(${directory})
   expect_reference_bytes(pour ${directory}
                          "pour on ${PROCESSES} processes continued on ${next}")
   expect_reference_frames(pour ${directory} "pour on ${PROCESSES} processes continued on ${next}")
@@ -187,6 +201,7 @@ if(NOT PROCESSES EQUAL 0)
   run_on(${PROCESSES} ${stream_case} ${stream_options} --set time.end=0.005 --output ${directory})
   run_on(${next} ${stream_case} ${stream_options} --output ${directory}
          --restart ${directory}/checkpoint.bin)
+  write_summary(${directory})
   expect_reference_bytes(stream ${directory}
                          "stream on ${PROCESSES} processes continued on ${next}")
   expect_reference_frames(stream ${directory}

@@ -52,6 +52,9 @@ void Stepper::start() {
 }
 
 Stepper::Stepper(Scene& scene, StepperState restored, PairFlag pair_flag)
+    : Stepper(scene, std::move(restored), CarriedPairs{}, std::move(pair_flag)) {}
+
+Stepper::Stepper(Scene& scene, StepperState restored, CarriedPairs carried, PairFlag pair_flag)
     : scene_(scene), pair_flag_(std::move(pair_flag)) {
   if (scene_.needs_pair_flag() && !pair_flag_) {
     throw std::invalid_argument("bond criterion 'pair flag' needs a pair-flag supplier");
@@ -62,9 +65,9 @@ Stepper::Stepper(Scene& scene, StepperState restored, PairFlag pair_flag)
   list_.restore(scene_.particles, scene_.domain, list_reach(), restored.list);
   // Freed before the pair slots are allocated: a restart's peak stays at a step's.
   restored.list = NeighborListState{};
-  CarriedPairs carried = carried_from(restored.slips);
+  CarriedPairs records = carried_from(restored.slips);
   restored.slips = std::vector<SlipRecord>{};
-  carry_pairs(std::move(carried));
+  carry_pairs(std::move(carried), std::move(records));
   if (restored.boundaries.size() != kBoundaryStateValues * scene_.boundaries.size()) {
     throw std::invalid_argument("saved state does not match the case's boundaries");
   }
@@ -199,6 +202,30 @@ Stepper::CarriedPairs Stepper::carried_from(const std::vector<SlipRecord>& slips
   return carried;
 }
 
+SlipRecord Stepper::CarriedPairs::record(std::size_t k) const {
+  const Key& key = keys[k];
+  SlipRecord slip{key.first_id, key.second_id, 0.0, 0.0, 0.0};
+  slip.bonded = bonded[key.slot];
+  if (!history.sx.empty()) {
+    slip.sx = history.sx[key.slot];
+    slip.sy = history.sy[key.slot];
+    slip.sz = history.sz[key.slot];
+  }
+  if (!history.joined.empty()) {
+    slip.rx = history.rx[key.slot];
+    slip.ry = history.ry[key.slot];
+    slip.rz = history.rz[key.slot];
+    slip.joined = history.joined[key.slot];
+  }
+  return slip;
+}
+
+Stepper::CarriedPairs Stepper::take_pairs(const std::function<bool(std::int64_t)>& keep) {
+  CarriedPairs carried = release_pairs();
+  std::erase_if(carried.keys, [&](const CarriedPairs::Key& key) { return !keep(key.first_id); });
+  return carried;
+}
+
 void Stepper::release_pair_forces() {
   StaggeredVector<std::uint8_t> bonded = std::move(pair_forces_.bonded);
   pair_forces_ = PairForces{};
@@ -227,14 +254,13 @@ Stepper::CarriedPairs Stepper::release_pairs() {
   return carried;
 }
 
-void Stepper::carry_pairs(CarriedPairs carried) {
+void Stepper::carry_pairs(CarriedPairs carried, CarriedPairs more) {
   // Pair slots are indexed by the new list: start them clean, then refill by ids.
   const std::size_t pairs = list_.pair_count();
   const bool extended = scene_.particles.contact_history;
   history_.resize(pairs, scene_.friction, extended);
   assign_zeros(pair_forces_.bonded, pairs);
-  std::vector<CarriedPairs::Key>& keys = carried.keys;
-  if (!keys.empty()) {
+  if (!carried.keys.empty() || !more.keys.empty()) {
     // Key each pair by its ids, smaller first; the springs belong to the first particle's side,
     // so they change sign when the list now sees the pair the other way round. By value:
     // std::minmax returns references, which would dangle here.
@@ -243,34 +269,41 @@ void Stepper::carry_pairs(CarriedPairs carried) {
                    : std::pair<std::int64_t, std::int64_t>(b, a);
     };
     using Key = CarriedPairs::Key;
-    std::sort(keys.begin(), keys.end(), [&](const Key& l, const Key& r) {
-      return key(l.first_id, l.second_id) < key(r.first_id, r.second_id);
-    });
+    for (CarriedPairs* source : {&carried, &more}) {
+      std::sort(source->keys.begin(), source->keys.end(), [&](const Key& l, const Key& r) {
+        return key(l.first_id, l.second_id) < key(r.first_id, r.second_id);
+      });
+    }
     const Particles& p = scene_.particles;
-    const PairHistory& from = carried.history;
     list_.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
       const auto wanted = key(p.id[i], p.id[j]);
-      const auto found = std::lower_bound(
-          keys.begin(), keys.end(), wanted,
-          [&](const Key& r, const auto& w) { return key(r.first_id, r.second_id) < w; });
-      if (found == keys.end() || key(found->first_id, found->second_id) != wanted) return;
-      const std::uint32_t s = found->slot;
-      pair_forces_.bonded[k] = carried.bonded[s];
-      const double sign = found->first_id == p.id[i] ? 1.0 : -1.0;
-      if (scene_.friction) {
-        history_.sx[k] = sign * from.sx[s];
-        history_.sy[k] = sign * from.sy[s];
-        history_.sz[k] = sign * from.sz[s];
-      }
-      if (extended) {
-        history_.rx[k] = sign * from.rx[s];
-        history_.ry[k] = sign * from.ry[s];
-        history_.rz[k] = sign * from.rz[s];
-        history_.joined[k] = from.joined[s];
+      for (const CarriedPairs* source : {&carried, &more}) {
+        const std::vector<Key>& keys = source->keys;
+        const auto found = std::lower_bound(
+            keys.begin(), keys.end(), wanted,
+            [&](const Key& r, const auto& w) { return key(r.first_id, r.second_id) < w; });
+        if (found == keys.end() || key(found->first_id, found->second_id) != wanted) continue;
+        const PairHistory& from = source->history;
+        const std::uint32_t s = found->slot;
+        pair_forces_.bonded[k] = source->bonded[s];
+        const double sign = found->first_id == p.id[i] ? 1.0 : -1.0;
+        if (scene_.friction) {
+          history_.sx[k] = sign * from.sx[s];
+          history_.sy[k] = sign * from.sy[s];
+          history_.sz[k] = sign * from.sz[s];
+        }
+        if (extended) {
+          history_.rx[k] = sign * from.rx[s];
+          history_.ry[k] = sign * from.ry[s];
+          history_.rz[k] = sign * from.rz[s];
+          history_.joined[k] = from.joined[s];
+        }
+        return;
       }
     });
   }
   carried = CarriedPairs{};
+  more = CarriedPairs{};
 }
 
 void Stepper::rebuild_list() {

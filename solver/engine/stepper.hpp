@@ -95,9 +95,33 @@ class Stepper {
   /// takes @p share.next_particle_id (the part does not hold the whole run's largest id).
   Stepper(Scene& scene, const RunShare& share, PairFlag pair_flag = {});
 
+  /// The pairs' state on its way across a list build (reordering included) or from a checkpoint:
+  /// the pairs that have any, keyed by particle ids, each with its slot in the arrays it came
+  /// from. 24 B a pair besides those arrays, which a rebuild moves out of the stepper rather than
+  /// copies: no 72-B SlipRecord per loaded pair.
+  struct CarriedPairs {
+    struct Key {
+      std::int64_t first_id, second_id;
+      std::uint32_t slot;
+    };
+    std::vector<Key> keys;
+    PairHistory history;                   ///< springs, rolling springs and JKR flags, by slot
+    StaggeredVector<std::uint8_t> bonded;  ///< bond flags, by slot
+    /// The state of the pair of key @p k, as a checkpoint carries it.
+    SlipRecord record(std::size_t k) const;
+  };
   /// Continue from a saved state; the scene's particles (forces included) must be those saved
   /// with it. By value: its arrays are freed as soon as they are used (pass it moved).
   Stepper(Scene& scene, StepperState restored, PairFlag pair_flag = {});
+  /// The same, the pairs' state from @p carried (take_pairs() of the stepper this one follows)
+  /// and from restored.slips, which hold the pairs @p carried lacks.
+  Stepper(Scene& scene, StepperState restored, CarriedPairs carried, PairFlag pair_flag = {});
+
+  /// Take the state of the pairs whose first particle's id @p keep accepts (the first of the
+  /// pair's row, as for_each_slip() visits it) out of the stepper, which steps no more: what a
+  /// decomposed run's migration carries to the part that follows, in the stepper's arrays (about 49
+  /// B a pair with a spring) instead of 72-B SlipRecords.
+  CarriedPairs take_pairs(const std::function<bool(std::int64_t)>& keep);
 
   /// One velocity-Verlet step of scene.time_step. Throws BlowUpError, after completing the step,
   /// when a value is not finite or an overlap exceeds scene.max_overlap_fraction of a radius.
@@ -216,19 +240,6 @@ class Stepper {
   /// for_each_slip's visit of pair @p k in the row of particle @p i.
   template <class Visit>
   void visit_slip(std::size_t i, std::uint32_t k, Visit& visit) const;
-  /// The pairs' state on its way across a list build (reordering included) or from a checkpoint:
-  /// the pairs that have any, keyed by particle ids, each with its slot in the arrays it came
-  /// from. 24 B a pair besides those arrays, which a rebuild moves out of the stepper rather than
-  /// copies: no 72-B SlipRecord per loaded pair.
-  struct CarriedPairs {
-    struct Key {
-      std::int64_t first_id, second_id;
-      std::uint32_t slot;
-    };
-    std::vector<Key> keys;
-    PairHistory history;                   ///< springs, rolling springs and JKR flags, by slot
-    StaggeredVector<std::uint8_t> bonded;  ///< bond flags, by slot
-  };
   /// @p slips (a checkpoint's) as carried pairs.
   CarriedPairs carried_from(const std::vector<SlipRecord>& slips) const;
   /// Take the pairs' state out of the stepper before a build: its history and bond flags move
@@ -236,9 +247,10 @@ class Stepper {
   /// after every build rewrites, are freed (56 B a pair with friction) for the keys to take
   /// their place.
   CarriedPairs release_pairs();
-  /// Clean pair slots for the current list, refilled from @p carried by particle ids; the force
-  /// slots are allocated once @p carried is freed, so that a rebuild's peak stays below a step's.
-  void carry_pairs(CarriedPairs carried);
+  /// Clean pair slots for the current list, refilled from @p carried by particle ids (then from
+  /// @p more, for the pairs @p carried lacks); the force slots are allocated once both are freed,
+  /// so that a rebuild's peak stays below a step's.
+  void carry_pairs(CarriedPairs carried, CarriedPairs more = {});
   /// Whether slot @p k of @p history and @p bonded holds state: a spring, an EPSD rolling spring,
   /// a JKR hold or a bond.
   bool carries_state(const PairHistory& history, const StaggeredVector<std::uint8_t>& bonded,
