@@ -752,18 +752,20 @@ class DistributedRun {
     });
   }
 
-  /// What rank 0 writes and measures at the end of the run (or at a stop: the final state only,
-  /// with @p analysed false), gathered from every process's part, which each then frees: the
-  /// particles by id with the fields of a final state (and of the analysis), and per particle its
-  /// bonds (thermal runs) and, when @p analysed, its contacts and the bonded pairs. Every process
-  /// calls it; the part is gone afterwards.
+  /// What rank 0 writes and measures at the end of a run (or at a stop), without a stepper.
   struct EndState {
-    Particles particles;
-    std::vector<int> bonds, contacts;
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> bonded;
+    Particles particles;        ///< by id, with the fields of a final state and of the analysis
+    std::vector<int> bonds;     ///< per particle, in thermal runs
+    std::vector<int> contacts;  ///< per particle, the partners it overlaps (when analysed)
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> bonded;  ///< by index (when analysed)
     RunCounts counts;
     double laser_energy = 0.0, laser_missed = 0.0;
   };
+
+  /// The EndState gathered on rank 0 (elsewhere only its counts) from every process's part,
+  /// over @p order, which each process frees as it sends: its stepper once its counts are taken,
+  /// each field once sent. A stop needs only the final state (@p analysed false). Every process
+  /// calls it; the part is gone afterwards.
   EndState finish(const IdStream& order, bool analysed) {
     Particles& p = part_.scene->particles;
     const Stepper& stepper = *part_.stepper;
