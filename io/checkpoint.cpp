@@ -174,6 +174,43 @@ class Reader {
     take(text.data(), size);
     return text;
   }
+  /// As get(values, rows * width), keeping only the rows @p keep marks (@p rows of @p width
+  /// values each), read a block of rows at a time.
+  template <class T, class Allocator>
+  void get_rows(std::vector<T, Allocator>& values, std::uint64_t rows, std::uint64_t width,
+                const std::vector<std::uint8_t>& keep) {
+    const auto size = get<std::uint64_t>();
+    if (size != rows * width) {
+      fail("array of " + std::to_string(size) + " entries, expected " +
+           std::to_string(rows * width));
+    }
+    check_room(size, sizeof(T));
+    const auto kept = static_cast<std::size_t>(
+        std::count_if(keep.begin(), keep.end(), [](std::uint8_t k) { return k != 0; }));
+    values.resize(kept * width);
+    constexpr std::uint64_t kBlockRows = 4096;
+    std::vector<T> block;
+    std::size_t at = 0;
+    for (std::uint64_t first = 0; first < rows; first += kBlockRows) {
+      const std::uint64_t count = std::min(kBlockRows, rows - first);
+      block.resize(count * width);
+      take(block.data(), block.size() * sizeof(T));
+      for (std::uint64_t k = 0; k < count; ++k) {
+        if (keep[first + k] == 0) continue;
+        std::copy_n(block.begin() + static_cast<std::ptrdiff_t>(k * width), width,
+                    values.begin() + static_cast<std::ptrdiff_t>(at * width));
+        ++at;
+      }
+    }
+  }
+  /// Pass over an array of entries of @p entry_size bytes.
+  void skip_array(std::size_t entry_size) {
+    const auto size = get<std::uint64_t>();
+    check_room(size, entry_size);
+    in_.ignore(static_cast<std::streamsize>(size * entry_size));
+    if (!in_) fail("unreadable");
+    left_ -= size * entry_size;
+  }
   void get_raw(void* out, std::size_t size) { take(out, size); }
   /// Refuse a count of @p count entries of @p entry_size bytes that the bytes left cannot hold:
   /// checked before allocating, so a forged count cannot exhaust memory.
@@ -752,7 +789,16 @@ std::ifstream open_checked_payload(const std::string& path, std::uint64_t& size)
 
 }  // namespace
 
-Checkpoint read_checkpoint(const std::string& path) {
+namespace {
+
+/// What a read takes of a checkpoint: everything, the rows @p keep marks (and the pairs of their
+/// particles), or only the ids, positions and radii.
+struct ReadScope {
+  const std::vector<std::uint8_t>* keep = nullptr;
+  bool positions_only = false;
+};
+
+Checkpoint read_checkpoint(const std::string& path, const ReadScope& scope) {
   std::uint64_t size = 0;
   std::ifstream in = open_checked_payload(path, size);
   Reader r(in, size, path);
@@ -769,6 +815,10 @@ Checkpoint read_checkpoint(const std::string& path) {
   s.list.builds = r.get<std::int64_t>();
   const auto n = r.get<std::uint64_t>();
   r.check_room(n, sizeof(double));
+  if (scope.keep != nullptr && scope.keep->size() != n) {
+    r.fail("holds " + std::to_string(n) + " particles, not the " +
+           std::to_string(scope.keep->size()) + " read before");
+  }
   Particles& p = c.particles;
   // Per-wall fields hold wall_values per wall: the wall count is read before their section.
   const auto get_section = [&](CheckpointSection section) {
@@ -776,12 +826,33 @@ Checkpoint read_checkpoint(const std::string& path) {
       if (has(field, kCheckpointed) && checkpoint_section(field) == section) {
         const std::uint64_t width = values_per_particle(field, p);
         if (width > 1 && n > UINT64_MAX / width) r.fail("implausible wall count");
-        std::visit([&](auto member) { r.get(p.*member, n * width); }, field.member);
+        std::visit(
+            [&](auto member) {
+              auto& values = p.*member;
+              using Value = typename std::decay_t<decltype(values)>::value_type;
+              const std::string_view name = field.name;
+              if (scope.positions_only && name != "id" && name != "x" && name != "y" &&
+                  name != "z" && name != "radius") {
+                r.skip_array(sizeof(Value));
+              } else if (scope.keep != nullptr) {
+                r.get_rows(values, n, width, *scope.keep);
+              } else {
+                r.get(values, n * width);
+              }
+            },
+            field.member);
       }
     }
   };
   get_section(CheckpointSection::kParticle);
-  for (auto* field : {&s.list.x0, &s.list.y0, &s.list.z0}) r.get(*field, n);
+  if (scope.positions_only) return c;  // the checksum was verified over the whole payload
+  for (auto* field : {&s.list.x0, &s.list.y0, &s.list.z0}) {
+    if (scope.keep != nullptr) {
+      r.get_rows(*field, n, 1, *scope.keep);
+    } else {
+      r.get(*field, n);
+    }
+  }
   p.walls = r.get<std::int32_t>();
   if (p.walls < 0) r.fail("negative wall count");
   if (p.walls > INT32_MAX / Particles::kWallContactValues) r.fail("implausible wall count");
@@ -789,8 +860,13 @@ Checkpoint read_checkpoint(const std::string& path) {
   const auto slip_count = r.get<std::uint64_t>();
   constexpr std::size_t kSlipBytes = 2 * sizeof(std::int64_t) + 6 * sizeof(double) + 2;
   r.check_room(slip_count, kSlipBytes);
-  s.slips.resize(slip_count);
-  for (SlipRecord& slip : s.slips) {
+  // With rows kept, the pairs of a kept particle (the kept ids are in order: the file is by id).
+  const auto kept = [&](std::int64_t id) {
+    return std::binary_search(p.id.begin(), p.id.end(), id);
+  };
+  if (scope.keep == nullptr) s.slips.reserve(slip_count);
+  for (std::uint64_t k = 0; k < slip_count; ++k) {
+    SlipRecord slip{};
     slip.first_id = r.get<std::int64_t>();
     slip.second_id = r.get<std::int64_t>();
     slip.sx = r.get<double>();
@@ -801,6 +877,9 @@ Checkpoint read_checkpoint(const std::string& path) {
     slip.rz = r.get<double>();
     slip.bonded = r.get<std::uint8_t>();
     slip.joined = r.get<std::uint8_t>();
+    if (scope.keep == nullptr || kept(slip.first_id) || kept(slip.second_id)) {
+      s.slips.push_back(slip);
+    }
   }
   const auto boundary_values = r.get<std::uint64_t>();
   r.check_room(boundary_values, sizeof(double));
@@ -838,9 +917,23 @@ Checkpoint read_checkpoint(const std::string& path) {
   for (const ParticleField& field : kParticleFields) {
     if (has(field, kCheckpointed) || !in_use(field, p)) continue;
     const std::size_t width = values_per_particle(field, p);
-    std::visit([&](auto member) { (p.*member).assign(n * width, {}); }, field.member);
+    std::visit([&](auto member) { (p.*member).assign(p.size() * width, {}); }, field.member);
   }
   return c;
+}
+
+}  // namespace
+
+Checkpoint read_checkpoint(const std::string& path) {
+  return read_checkpoint(path, ReadScope{});
+}
+
+Checkpoint read_checkpoint(const std::string& path, const std::vector<std::uint8_t>& keep) {
+  return read_checkpoint(path, ReadScope{&keep, false});
+}
+
+Particles read_checkpoint_positions(const std::string& path) {
+  return std::move(read_checkpoint(path, ReadScope{nullptr, true}).particles);
 }
 
 }  // namespace bondem

@@ -201,4 +201,12 @@ void serve_checkpoint(const CheckpointView& checkpoint);
 /// Read and verify a checkpoint. Throws CheckpointError naming the file and the problem.
 Checkpoint read_checkpoint(const std::string& path);
 
+/// The same, keeping only the particles whose row (the file holds them by id) @p keep marks, with
+/// their list positions, and the pairs with a kept particle: a distributed restart's part.
+Checkpoint read_checkpoint(const std::string& path, const std::vector<std::uint8_t>& keep);
+
+/// The ids, positions and radii of a checkpoint's particles, by id (no other field): what a
+/// distributed restart bisects before it reads its part.
+Particles read_checkpoint_positions(const std::string& path);
+
 }  // namespace bondem

@@ -47,8 +47,10 @@ namespace {
 
 /// What in @p restored does not fit @p scene ("" when all fits): a checkpoint that passes its
 /// checksum and fingerprint may still be forged, and the stepper indexes by these sizes.
-std::string checkpoint_misfit(const Checkpoint& restored, const Scene& scene,
-                              std::size_t materials) {
+/// @p particles: how many the checkpoint holds (more than restored.particles when only a part
+/// of them was read).
+std::string checkpoint_misfit(const Checkpoint& restored, const Scene& scene, std::size_t materials,
+                              std::size_t particles) {
   const Particles& p = restored.particles;
   const Particles& expected = scene.particles;
   if (restored.stepper.streams.size() != scene.streams.size()) {
@@ -63,8 +65,8 @@ std::string checkpoint_misfit(const Checkpoint& restored, const Scene& scene,
   }
   const std::int64_t removed = restored.stepper.removed.count;
   if (removed < 0 || static_cast<std::size_t>(removed) > expected.size() + inserted ||
-      p.size() != expected.size() + inserted - static_cast<std::size_t>(removed)) {
-    return std::to_string(p.size()) + " particles, the case has " +
+      particles != expected.size() + inserted - static_cast<std::size_t>(removed)) {
+    return std::to_string(particles) + " particles, the case has " +
            std::to_string(expected.size()) + ", its streams inserted " + std::to_string(inserted) +
            " and " + std::to_string(removed) + " were removed";
   }
@@ -284,10 +286,12 @@ RunPlan plan_run(const Case& description, const RunOptions& options) {
 }
 
 Checkpoint read_fitting_checkpoint(const Case& description, const RunOptions& options,
-                                   const RunPlan& plan, const Scene& scene) {
+                                   const RunPlan& plan, const Scene& scene,
+                                   const std::vector<std::uint8_t>* keep) {
   Checkpoint restored;
   try {
-    restored = read_checkpoint(options.restart_path);
+    restored = keep != nullptr ? read_checkpoint(options.restart_path, *keep)
+                               : read_checkpoint(options.restart_path);
   } catch (const CheckpointError& e) {
     throw CaseError(e.what());
   }
@@ -297,7 +301,9 @@ Checkpoint read_fitting_checkpoint(const Case& description, const RunOptions& op
                     "materials, laws, time step, domain, walls or particle count differ from " +
                     description.source + ")");
   }
-  if (const std::string misfit = checkpoint_misfit(restored, scene, description.materials.size());
+  if (const std::string misfit =
+          checkpoint_misfit(restored, scene, description.materials.size(),
+                            keep != nullptr ? keep->size() : restored.particles.size());
       !misfit.empty()) {
     throw CaseError(options.restart_path + ": checkpoint does not fit the case: it holds " +
                     misfit);

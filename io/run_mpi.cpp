@@ -518,6 +518,20 @@ struct WholeRun {
   std::unique_ptr<Stepper> stepper;
 };
 
+/// The halo of a distribution of @p all in @p frame: a stream may add particles larger than any
+/// present, so it reaches the run's largest radius.
+double distribution_halo(const Particles& all, const Scene& frame) {
+  return std::max(decomposition_halo(all, frame.skin),
+                  2.0 * frame.largest_radius + 2.0 * frame.skin);
+}
+
+/// The cuts of a restart, decided from every particle's position before each process reads only
+/// the particles of its part, and their halo.
+struct RestartCuts {
+  Decomposition decomposition;
+  double halo = 0.0;
+};
+
 /// This process's part of a distributed run: its RankPart, the ghost exchange with the other
 /// processes, and the run's totals, which every process holds.
 class DistributedRun {
@@ -526,7 +540,7 @@ class DistributedRun {
   /// @p costs, stepping_costs()) over the processes, each part a copy of @p frame (the run's scene
   /// without its particles) with its particles.
   DistributedRun(Scene frame, const Particles& all, const StepperState& state,
-                 const std::vector<double>& costs)
+                 const std::vector<double>& costs, const std::optional<RestartCuts>& cuts = {})
       : frame_(std::move(frame)),
         thermal_(all.thermal()),
         contacts_(state.contacts),
@@ -534,7 +548,7 @@ class DistributedRun {
         bonds_broken_(state.bonds_broken),
         removed_(state.removed) {
     adopt_layout(all);
-    distribute(all, state, costs);
+    distribute(all, state, costs, cuts);
   }
 
   /// Start a fresh run from this process's own particles @p owned (those @p decomposition gives
@@ -845,16 +859,15 @@ class DistributedRun {
 
   /// Bisect @p all over the processes and take this process's part, continuing @p state; then
   /// list what to send to each process after every step and where its particles go.
-  void distribute(const Particles& all, const StepperState& state,
-                  const std::vector<double>& cost) {
+  void distribute(const Particles& all, const StepperState& state, const std::vector<double>& cost,
+                  const std::optional<RestartCuts>& cuts = {}) {
     const int size = world_size();
     const int rank = world_rank();
     const Scene& probe = frame_;
-    // A stream may add particles larger than any present: the halo reaches the run's largest.
-    const double halo = std::max(decomposition_halo(all, probe.skin),
-                                 2.0 * probe.largest_radius + 2.0 * probe.skin);
-    const Decomposition d = bisect(all.x, all.y, all.z, cost, all.id,
-                                   Box{probe.domain.min, probe.domain.max}, size, halo);
+    const double halo = cuts ? cuts->halo : distribution_halo(all, probe);
+    const Decomposition d = cuts ? cuts->decomposition
+                                 : bisect(all.x, all.y, all.z, cost, all.id,
+                                          Box{probe.domain.min, probe.domain.max}, size, halo);
     decomposition_ = d;
     halo_ = halo;
     part_.stepper.reset();  // before the scene it steps
@@ -1346,6 +1359,7 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
   StepperState state;
   RunTotals first_totals;     // of step 0 (a fresh run's first history row)
   std::vector<double> costs;  // bisection weights: a restart has no list yet, and weighs 1 each
+  std::optional<RestartCuts> restart_cuts;
   std::string history_text;
   const bool vtk = description.vtk_interval > 0.0;
   together([&] {
@@ -1359,7 +1373,36 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
     // As in run_case: the scene holds the particles, the plan what was derived from them.
     std::vector<ParticleSpec>().swap(description.particles);
     std::vector<SlipRecord>().swap(description.initial_pairs);
-    Checkpoint restored = read_fitting_checkpoint(description, options, plan, *scene);
+    // Each process reads only its part of the checkpoint: the cuts come from every particle's
+    // position, alike on every process (each weighing 1, as no list has measured the cost yet),
+    // then the rows of the part (owned and halo) and the pairs that touch them.
+    std::vector<std::uint8_t> keep;
+    {
+      Particles where;
+      try {
+        where = read_checkpoint_positions(options.restart_path);
+      } catch (const CheckpointError& e) {
+        throw CaseError(e.what());
+      }
+      const double halo = distribution_halo(where, *scene);
+      const std::vector<double> weights(where.size(), 1.0);
+      restart_cuts.emplace(
+          RestartCuts{bisect(where.x, where.y, where.z, weights, where.id,
+                             Box{scene->domain.min, scene->domain.max}, world_size(), halo),
+                      halo});
+      const int rank = world_rank();
+      keep.assign(where.size(), 0);
+      for (std::size_t k = 0; k < where.size(); ++k) {
+        if (restart_cuts->decomposition.owner(where.x[k], where.y[k], where.z[k]) == rank) {
+          keep[k] = 1;
+        }
+      }
+      for (const std::uint32_t k : subdomain_members(
+               restart_cuts->decomposition, rank, scene->domain, halo, where.x, where.y, where.z)) {
+        keep[k] = 1;
+      }
+    }
+    Checkpoint restored = read_fitting_checkpoint(description, options, plan, *scene, &keep);
     plan.first_step = restored.stepper.step;
     scene->particles = std::move(restored.particles);
     // As in run_case: displacements from here when the interrupted run did not track them.
@@ -1386,7 +1429,7 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
     const Particles all = std::move(scene->particles);
     scene->particles = Particles{};
     scene->initial_pairs = std::vector<SlipRecord>{};
-    run_part.emplace(std::move(*scene), all, state, costs);
+    run_part.emplace(std::move(*scene), all, state, costs, restart_cuts);
   } else {
     // No process holds the whole scene: each builds its own particles, and the parts evaluate
     // the initial forces (each owned particle's are the run in one process's).

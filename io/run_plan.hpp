@@ -39,9 +39,11 @@ struct RunPlan {
 RunPlan plan_run(const Case& description, const RunOptions& options);
 
 /// The checkpoint options.restart_path, checked to come from @p description, to fit @p scene and
-/// to end before the plan's last step. Throws CaseError.
+/// to end before the plan's last step; with @p keep, only the rows it marks (read_checkpoint()).
+/// Throws CaseError.
 Checkpoint read_fitting_checkpoint(const Case& description, const RunOptions& options,
-                                   const RunPlan& plan, const Scene& scene);
+                                   const RunPlan& plan, const Scene& scene,
+                                   const std::vector<std::uint8_t>* keep = nullptr);
 
 /// Refuses, before any output is written, an output.history_fields name without a column in
 /// this run, an output.vtk_fields name without a particle array, and a restart whose columns
