@@ -242,6 +242,60 @@ output: {directory: out}
 
 // Issue 13: the fingerprint covers the whole case. A restart of a case that differs in anything
 // that shapes the trajectory is refused; a later end and other outputs are accepted.
+// A distributed restart reads every particle's position, then only its part's rows: the rows
+// kept are those of the whole read, values and list positions bit for bit, with the pairs that
+// touch a kept particle; a mark per row that does not match the file is refused.
+TEST(PartialCheckpoint, KeepsTheMarkedRowsAndTheirPairs) {
+  const fs::path directory = testing::fresh_directory("run_io_partial_checkpoint");
+  // The bonded frictional pour: its pairs carry springs and bonds.
+  Case c = load_case(BONDEM_TEST_CASES_DIR "/storage_order.yaml", {"time.end=0.0006"});
+  c.vtk_interval = 0.0;
+  testing::quiet_run(c, directory);
+  const std::string path = (directory / "checkpoint.bin").string();
+  const Checkpoint whole = read_checkpoint(path);
+  const Particles& all = whole.particles;
+  const Particles where = read_checkpoint_positions(path);
+  ASSERT_EQ(where.size(), all.size());
+  for (std::size_t k = 0; k < all.size(); ++k) {
+    EXPECT_EQ(where.id[k], all.id[k]);
+    EXPECT_EQ(where.z[k], all.z[k]);
+    EXPECT_EQ(where.radius[k], all.radius[k]);
+  }
+  std::vector<std::uint8_t> keep(all.size(), 0);
+  for (std::size_t k = 0; k < keep.size(); k += 3) keep[k] = 1;
+  const Checkpoint part = read_checkpoint(path, keep);
+  const Particles& p = part.particles;
+  std::size_t at = 0;
+  const auto width = static_cast<std::size_t>(3 * all.walls);
+  for (std::size_t k = 0; k < all.size(); ++k) {
+    if (keep[k] == 0) continue;
+    ASSERT_LT(at, p.size());
+    EXPECT_EQ(p.id[at], all.id[k]);
+    EXPECT_EQ(p.x[at], all.x[k]);
+    EXPECT_EQ(p.vy[at], all.vy[k]);
+    EXPECT_EQ(p.wz[at], all.wz[k]);
+    EXPECT_EQ(part.stepper.list.z0[at], whole.stepper.list.z0[k]);
+    for (std::size_t v = 0; v < width; ++v) {
+      EXPECT_EQ(p.wall_slip[at * width + v], all.wall_slip[k * width + v]);
+    }
+    ++at;
+  }
+  EXPECT_EQ(at, p.size());
+  std::vector<std::pair<std::int64_t, std::int64_t>> expected, kept;
+  const auto is_kept = [&](std::int64_t id) {
+    return std::binary_search(p.id.begin(), p.id.end(), id);
+  };
+  for (const SlipRecord& s : whole.stepper.slips) {
+    if (is_kept(s.first_id) || is_kept(s.second_id)) expected.emplace_back(s.first_id, s.second_id);
+  }
+  for (const SlipRecord& s : part.stepper.slips) kept.emplace_back(s.first_id, s.second_id);
+  ASSERT_FALSE(expected.empty());
+  ASSERT_GT(whole.stepper.slips.size(), expected.size());  // some pairs are left out
+  EXPECT_EQ(kept, expected);
+  EXPECT_THROW(read_checkpoint(path, std::vector<std::uint8_t>(all.size() + 1, 1)),
+               CheckpointError);
+}
+
 TEST(Restart, OnlyEndTimeAndOutputsMayChange) {
   const fs::path directory = testing::fresh_directory("run_io_tool_case");
   testing::quiet_run(parse_case(kToolCase, "tool.yaml"), directory);
