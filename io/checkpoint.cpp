@@ -21,6 +21,10 @@ namespace {
 constexpr char kMagic[8] = {'B', 'O', 'N', 'D', 'E', 'M', 'C', 'K'};
 /// Bytes before the payload: magic, version, payload size.
 constexpr std::size_t kHeaderBytes = sizeof kMagic + sizeof(std::uint32_t) + sizeof(std::uint64_t);
+/// Bytes of a pair's state in the payload: its ids, springs, bond and JKR flags, field by field
+/// (the struct's padding bytes are not part of the state).
+constexpr std::size_t kSlipBytes = 2 * sizeof(std::int64_t) + 6 * sizeof(double) +
+                                   sizeof(SlipRecord::bonded) + sizeof(SlipRecord::joined);
 
 /// FNV-1a, 64 bit: simple, dependency-free, and enough to catch truncation and bit rot.
 std::uint64_t fnv1a(const char* data, std::size_t size,
@@ -606,7 +610,6 @@ void put_payload(Writer& payload, const CheckpointView& checkpoint, std::uint64_
   // Field by field: the struct's padding bytes are not part of the state.
   payload.put(slips);
   std::uint64_t visited = 0;
-  constexpr std::uint64_t kSlipBytes = 2 * sizeof(std::int64_t) + 6 * sizeof(double) + 2;
   if (parts && !payload.streams()) {
     payload.skip(slips * kSlipBytes);  // counted: the collective stream runs in the writing pass
   } else {
@@ -618,7 +621,6 @@ void put_payload(Writer& payload, const CheckpointView& checkpoint, std::uint64_
       payload.put(slip.joined);
       ++visited;
     });
-    static_assert(sizeof(SlipRecord::bonded) + sizeof(SlipRecord::joined) == 2);
     // A serving process visits none: the writer checks the count.
     if (payload.writes() && visited != slips) {
       throw std::logic_error("checkpoint: the pairs' state changed its count");
@@ -858,7 +860,6 @@ Checkpoint read_checkpoint(const std::string& path, const ReadScope& scope) {
   if (p.walls > INT32_MAX / Particles::kWallContactValues) r.fail("implausible wall count");
   get_section(CheckpointSection::kWall);
   const auto slip_count = r.get<std::uint64_t>();
-  constexpr std::size_t kSlipBytes = 2 * sizeof(std::int64_t) + 6 * sizeof(double) + 2;
   r.check_room(slip_count, kSlipBytes);
   // With rows kept, the pairs of a kept particle (the kept ids are in order: the file is by id).
   const auto kept = [&](std::int64_t id) {

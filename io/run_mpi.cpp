@@ -220,6 +220,31 @@ void wrap_periodic_positions(Particles& p, const Domain& domain) {
   }
 }
 
+/// The runs of values a gather to rank 0 concatenated in rank order (@p bytes from each process,
+/// @p size bytes a value): where each process's next value and its end are, in values.
+struct GatheredRuns {
+  GatheredRuns(const std::vector<std::int64_t>& bytes, std::size_t size)
+      : next(bytes.size(), 0), end(bytes.size(), 0) {
+    for (std::size_t r = 0; r < bytes.size(); ++r) {
+      next[r] = r == 0 ? 0 : end[r - 1];
+      end[r] = next[r] + static_cast<std::size_t>(bytes[r]) / size;
+    }
+  }
+  /// The process whose next value has the least @p key (key(index)), or next.size() when every
+  /// run is used up: a merge of runs each in order.
+  template <class Key>
+  std::size_t lowest(Key&& key) const {
+    std::size_t lowest = next.size();
+    for (std::size_t r = 0; r < next.size(); ++r) {
+      if (next[r] < end[r] && (lowest == next.size() || key(next[r]) < key(next[lowest]))) {
+        lowest = r;
+      }
+    }
+    return lowest;
+  }
+  std::vector<std::size_t> next, end;
+};
+
 /// Every process's owned particles in id order, cut into chunks of kChunk ids:
 /// how the parts stream values to rank 0 by id (a checkpoint's columns and pairs, the end of a
 /// run) without any process holding the whole run's at once. Collective to build and to use.
@@ -260,19 +285,10 @@ class IdStream {
                                     ids.begin() + static_cast<std::ptrdiff_t>(cuts_[c + 1])),
           true, &bytes);
       if (!root) continue;
-      std::vector<std::size_t> next(bytes.size(), 0), end(bytes.size(), 0);
-      for (std::size_t r = 0; r < bytes.size(); ++r) {
-        next[r] = r == 0 ? 0 : end[r - 1];
-        end[r] = next[r] + static_cast<std::size_t>(bytes[r]) / sizeof(std::int64_t);
-      }
+      GatheredRuns runs(bytes, sizeof(std::int64_t));
       for (std::size_t k = 0; k < all.size(); ++k) {
-        std::size_t lowest = bytes.size();
-        for (std::size_t r = 0; r < bytes.size(); ++r) {
-          if (next[r] < end[r] && (lowest == bytes.size() || all[next[r]] < all[next[lowest]])) {
-            lowest = r;
-          }
-        }
-        ++next[lowest];
+        const std::size_t lowest = runs.lowest([&](std::size_t at) { return all[at]; });
+        ++runs.next[lowest];
         source_.push_back(static_cast<std::int32_t>(lowest));
       }
       chunk_begins_.push_back(source_.size() - all.size());
@@ -298,15 +314,12 @@ class IdStream {
       std::vector<std::int64_t> bytes;
       const std::vector<char> all = gathered(std::move(mine), true, &bytes);
       if (world_rank() != 0) continue;
-      std::vector<std::size_t> next(bytes.size(), 0);  // where each process's next value starts
-      for (std::size_t r = 1; r < bytes.size(); ++r) {
-        next[r] = next[r - 1] + static_cast<std::size_t>(bytes[r - 1]);
-      }
+      GatheredRuns runs(bytes, 1);  // in bytes
       const std::size_t first = chunk_begins_[c];
       const std::size_t end = c + 1 < chunk_begins_.size() ? chunk_begins_[c + 1] : source_.size();
       merged.resize((end - first) * column.bytes);
       for (std::size_t k = first; k < end; ++k) {
-        std::size_t& from = next[static_cast<std::size_t>(source_[k])];
+        std::size_t& from = runs.next[static_cast<std::size_t>(source_[k])];
         std::memcpy(merged.data() + (k - first) * column.bytes, all.data() + from, column.bytes);
         from += column.bytes;
       }
@@ -329,23 +342,13 @@ class IdStream {
       const std::vector<SlipRecord> all = gathered(std::move(mine), true, &bytes);
       if (world_rank() != 0) continue;
       // Each process's pairs are in order, and a first particle's pairs all come from its owner.
-      std::vector<std::size_t> next(bytes.size(), 0), end(bytes.size(), 0);
-      for (std::size_t r = 0; r < bytes.size(); ++r) {
-        next[r] = r == 0 ? 0 : end[r - 1];
-        end[r] = next[r] + static_cast<std::size_t>(bytes[r]) / sizeof(SlipRecord);
-      }
-      while (true) {
-        std::size_t lowest = bytes.size();
-        for (std::size_t r = 0; r < bytes.size(); ++r) {
-          if (next[r] < end[r] &&
-              (lowest == bytes.size() || all[next[r]].first_id < all[next[lowest]].first_id)) {
-            lowest = r;
-          }
-        }
-        if (lowest == bytes.size()) break;
-        const std::int64_t first_id = all[next[lowest]].first_id;
-        while (next[lowest] < end[lowest] && all[next[lowest]].first_id == first_id) {
-          visit(static_cast<const SlipRecord&>(all[next[lowest]++]));
+      GatheredRuns runs(bytes, sizeof(SlipRecord));
+      const auto first_id_at = [&](std::size_t at) { return all[at].first_id; };
+      for (std::size_t r = runs.lowest(first_id_at); r < bytes.size();
+           r = runs.lowest(first_id_at)) {
+        const std::int64_t first_id = all[runs.next[r]].first_id;
+        while (runs.next[r] < runs.end[r] && all[runs.next[r]].first_id == first_id) {
+          visit(static_cast<const SlipRecord&>(all[runs.next[r]++]));
         }
       }
     }

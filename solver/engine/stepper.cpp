@@ -203,21 +203,7 @@ Stepper::CarriedPairs Stepper::carried_from(const std::vector<SlipRecord>& slips
 }
 
 SlipRecord Stepper::CarriedPairs::record(std::size_t k) const {
-  const Key& key = keys[k];
-  SlipRecord slip{key.first_id, key.second_id, 0.0, 0.0, 0.0};
-  slip.bonded = bonded[key.slot];
-  if (!history.sx.empty()) {
-    slip.sx = history.sx[key.slot];
-    slip.sy = history.sy[key.slot];
-    slip.sz = history.sz[key.slot];
-  }
-  if (!history.joined.empty()) {
-    slip.rx = history.rx[key.slot];
-    slip.ry = history.ry[key.slot];
-    slip.rz = history.rz[key.slot];
-    slip.joined = history.joined[key.slot];
-  }
-  return slip;
+  return slip_at(keys[k].first_id, keys[k].second_id, history, bonded, keys[k].slot);
 }
 
 Stepper::CarriedPairs Stepper::take_pairs(const std::function<bool(std::int64_t)>& keep) {

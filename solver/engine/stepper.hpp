@@ -237,6 +237,27 @@ class Stepper {
   /// The per-pair state (springs, bond flags) of the pairs that have any, keyed by particle ids:
   /// what a checkpoint carries (save_state()).
   std::vector<SlipRecord> collect_slips() const;
+  /// Slot @p k of @p history and @p bonded as the record of the pair (@p first_id, @p second_id):
+  /// springs when the history holds them (friction), rolling springs and the JKR flag when it
+  /// holds those.
+  static SlipRecord slip_at(std::int64_t first_id, std::int64_t second_id,
+                            const PairHistory& history, const StaggeredVector<std::uint8_t>& bonded,
+                            std::uint32_t k) {
+    SlipRecord slip{first_id, second_id, 0.0, 0.0, 0.0};
+    slip.bonded = bonded[k];
+    if (!history.sx.empty()) {
+      slip.sx = history.sx[k];
+      slip.sy = history.sy[k];
+      slip.sz = history.sz[k];
+    }
+    if (!history.joined.empty()) {
+      slip.rx = history.rx[k];
+      slip.ry = history.ry[k];
+      slip.rz = history.rz[k];
+      slip.joined = history.joined[k];
+    }
+    return slip;
+  }
   /// for_each_slip's visit of pair @p k in the row of particle @p i.
   template <class Visit>
   void visit_slip(std::size_t i, std::uint32_t k, Visit& visit) const;
@@ -320,20 +341,8 @@ template <class Visit>
 void Stepper::visit_slip(std::size_t i, std::uint32_t k, Visit& visit) const {
   if (!carries_state(history_, pair_forces_.bonded, k)) return;
   const Particles& p = scene_.particles;
-  SlipRecord slip{p.id[i], p.id[list_.second(k)], 0.0, 0.0, 0.0};
-  slip.bonded = pair_forces_.bonded[k];
-  if (scene_.friction) {
-    slip.sx = history_.sx[k];
-    slip.sy = history_.sy[k];
-    slip.sz = history_.sz[k];
-  }
-  if (!history_.joined.empty()) {
-    slip.rx = history_.rx[k];
-    slip.ry = history_.ry[k];
-    slip.rz = history_.rz[k];
-    slip.joined = history_.joined[k];
-  }
-  visit(static_cast<const SlipRecord&>(slip));
+  const SlipRecord slip = slip_at(p.id[i], p.id[list_.second(k)], history_, pair_forces_.bonded, k);
+  visit(slip);
 }
 
 }  // namespace bondem
