@@ -211,9 +211,14 @@ class Reader {
   void skip_array(std::size_t entry_size) {
     const auto size = get<std::uint64_t>();
     check_room(size, entry_size);
-    in_.ignore(static_cast<std::streamsize>(size * entry_size));
+    skip(size * entry_size);
+  }
+  /// Pass over @p bytes bytes.
+  void skip(std::uint64_t bytes) {
+    if (bytes > left_) fail("truncated");
+    in_.ignore(static_cast<std::streamsize>(bytes));
     if (!in_) fail("unreadable");
-    left_ -= size * entry_size;
+    left_ -= bytes;
   }
   void get_raw(void* out, std::size_t size) { take(out, size); }
   /// Refuse a count of @p count entries of @p entry_size bytes that the bytes left cannot hold:
@@ -789,21 +794,41 @@ std::ifstream open_checked_payload(const std::string& path, std::uint64_t& size)
   return in;
 }
 
+/// One pair's record, as write_checkpoint() writes it.
+SlipRecord read_slip(Reader& r) {
+  SlipRecord slip{};
+  slip.first_id = r.get<std::int64_t>();
+  slip.second_id = r.get<std::int64_t>();
+  slip.sx = r.get<double>();
+  slip.sy = r.get<double>();
+  slip.sz = r.get<double>();
+  slip.rx = r.get<double>();
+  slip.ry = r.get<double>();
+  slip.rz = r.get<double>();
+  slip.bonded = r.get<std::uint8_t>();
+  slip.joined = r.get<std::uint8_t>();
+  return slip;
+}
+
+/// Visits the @p count pair records at byte @p at of checkpoint @p path, read from @p in (kept
+/// open: a checkpoint is replaced by a rename, which leaves the verified file this reads).
+SlipSource streamed_slips(std::shared_ptr<std::ifstream> in, std::streamoff at, std::uint64_t count,
+                          std::string path) {
+  return [in = std::move(in), at, count,
+          path = std::move(path)](const std::function<void(const SlipRecord&)>& visit) {
+    in->clear();
+    in->seekg(at);
+    Reader r(*in, count * kSlipBytes, path);
+    for (std::uint64_t k = 0; k < count; ++k) visit(read_slip(r));
+  };
+}
+
 }  // namespace
 
-namespace {
-
-/// What a read takes of a checkpoint: everything, the rows @p keep marks (and the pairs of their
-/// particles), or only the ids, positions and radii.
-struct ReadScope {
-  const std::vector<std::uint8_t>* keep = nullptr;
-  bool positions_only = false;
-};
-
-Checkpoint read_checkpoint(const std::string& path, const ReadScope& scope) {
+Checkpoint read_checkpoint(const std::string& path, const CheckpointScope& scope) {
   std::uint64_t size = 0;
-  std::ifstream in = open_checked_payload(path, size);
-  Reader r(in, size, path);
+  auto in = std::make_shared<std::ifstream>(open_checked_payload(path, size));
+  Reader r(*in, size, path);
   Checkpoint c;
   StepperState& s = c.stepper;
   c.case_fingerprint = r.get<std::uint64_t>();
@@ -865,21 +890,16 @@ Checkpoint read_checkpoint(const std::string& path, const ReadScope& scope) {
   const auto kept = [&](std::int64_t id) {
     return std::binary_search(p.id.begin(), p.id.end(), id);
   };
-  if (scope.keep == nullptr) s.slips.reserve(slip_count);
-  for (std::uint64_t k = 0; k < slip_count; ++k) {
-    SlipRecord slip{};
-    slip.first_id = r.get<std::int64_t>();
-    slip.second_id = r.get<std::int64_t>();
-    slip.sx = r.get<double>();
-    slip.sy = r.get<double>();
-    slip.sz = r.get<double>();
-    slip.rx = r.get<double>();
-    slip.ry = r.get<double>();
-    slip.rz = r.get<double>();
-    slip.bonded = r.get<std::uint8_t>();
-    slip.joined = r.get<std::uint8_t>();
-    if (scope.keep == nullptr || kept(slip.first_id) || kept(slip.second_id)) {
-      s.slips.push_back(slip);
+  if (scope.pairs_streamed) {
+    s.slip_source = streamed_slips(in, in->tellg(), slip_count, path);
+    r.skip(slip_count * kSlipBytes);
+  } else {
+    if (scope.keep == nullptr) s.slips.reserve(slip_count);
+    for (std::uint64_t k = 0; k < slip_count; ++k) {
+      const SlipRecord slip = read_slip(r);
+      if (scope.keep == nullptr || kept(slip.first_id) || kept(slip.second_id)) {
+        s.slips.push_back(slip);
+      }
     }
   }
   const auto boundary_values = r.get<std::uint64_t>();
@@ -923,18 +943,16 @@ Checkpoint read_checkpoint(const std::string& path, const ReadScope& scope) {
   return c;
 }
 
-}  // namespace
-
 Checkpoint read_checkpoint(const std::string& path) {
-  return read_checkpoint(path, ReadScope{});
+  return read_checkpoint(path, CheckpointScope{});
 }
 
 Checkpoint read_checkpoint(const std::string& path, const std::vector<std::uint8_t>& keep) {
-  return read_checkpoint(path, ReadScope{&keep, false});
+  return read_checkpoint(path, CheckpointScope{&keep});
 }
 
 Particles read_checkpoint_positions(const std::string& path) {
-  return std::move(read_checkpoint(path, ReadScope{nullptr, true}).particles);
+  return std::move(read_checkpoint(path, CheckpointScope{nullptr, true}).particles);
 }
 
 }  // namespace bondem

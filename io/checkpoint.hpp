@@ -201,6 +201,21 @@ void serve_checkpoint(const CheckpointView& checkpoint);
 /// Read and verify a checkpoint. Throws CheckpointError naming the file and the problem.
 Checkpoint read_checkpoint(const std::string& path);
 
+/// What read_checkpoint() reads of a checkpoint.
+struct CheckpointScope {
+  /// When set, only the particles whose row (the file holds them by id) it marks, with their list
+  /// positions, and the pairs with a kept particle: a distributed restart's part.
+  const std::vector<std::uint8_t>* keep = nullptr;
+  /// Only the ids, positions and radii of the particles: what a distributed restart bisects.
+  bool positions_only = false;
+  /// The pairs are not read into stepper.slips: stepper.slip_source visits them all from the file,
+  /// kept open, as a restoring Stepper takes them, so that they need no memory of their own.
+  bool pairs_streamed = false;
+};
+
+/// Read and verify the part of a checkpoint that @p scope asks for.
+Checkpoint read_checkpoint(const std::string& path, const CheckpointScope& scope);
+
 /// The same, keeping only the particles whose row (the file holds them by id) @p keep marks, with
 /// their list positions, and the pairs with a kept particle: a distributed restart's part.
 Checkpoint read_checkpoint(const std::string& path, const std::vector<std::uint8_t>& keep);

@@ -48,11 +48,11 @@ namespace {
 /// What in @p restored does not fit @p scene ("" when all fits): a checkpoint that passes its
 /// checksum and fingerprint may still be forged, and the stepper indexes by these sizes.
 /// @p particles: how many the checkpoint holds (more than restored.particles when only a part
-/// of them was read).
+/// of them was read); @p case_particles: how many the case places.
 std::string checkpoint_misfit(const Checkpoint& restored, const Scene& scene, std::size_t materials,
-                              std::size_t particles) {
+                              std::size_t particles, std::size_t case_particles) {
   const Particles& p = restored.particles;
-  const Particles& expected = scene.particles;
+  const Particles& expected = scene.particles;  // its layout
   if (restored.stepper.streams.size() != scene.streams.size()) {
     return std::to_string(restored.stepper.streams.size()) + " particle streams, the case has " +
            std::to_string(scene.streams.size());
@@ -64,10 +64,10 @@ std::string checkpoint_misfit(const Checkpoint& restored, const Scene& scene, st
     inserted += static_cast<std::size_t>(stream.count);
   }
   const std::int64_t removed = restored.stepper.removed.count;
-  if (removed < 0 || static_cast<std::size_t>(removed) > expected.size() + inserted ||
-      particles != expected.size() + inserted - static_cast<std::size_t>(removed)) {
+  if (removed < 0 || static_cast<std::size_t>(removed) > case_particles + inserted ||
+      particles != case_particles + inserted - static_cast<std::size_t>(removed)) {
     return std::to_string(particles) + " particles, the case has " +
-           std::to_string(expected.size()) + ", its streams inserted " + std::to_string(inserted) +
+           std::to_string(case_particles) + ", its streams inserted " + std::to_string(inserted) +
            " and " + std::to_string(removed) + " were removed";
   }
   if (p.walls != expected.walls) {
@@ -287,11 +287,13 @@ RunPlan plan_run(const Case& description, const RunOptions& options) {
 
 Checkpoint read_fitting_checkpoint(const Case& description, const RunOptions& options,
                                    const RunPlan& plan, const Scene& scene,
+                                   std::size_t case_particles,
                                    const std::vector<std::uint8_t>* keep) {
   Checkpoint restored;
   try {
-    restored = keep != nullptr ? read_checkpoint(options.restart_path, *keep)
-                               : read_checkpoint(options.restart_path);
+    // The pairs are read as the stepper takes them, into its slots: never all in memory.
+    restored = read_checkpoint(options.restart_path,
+                               CheckpointScope{.keep = keep, .pairs_streamed = true});
   } catch (const CheckpointError& e) {
     throw CaseError(e.what());
   }
@@ -301,9 +303,9 @@ Checkpoint read_fitting_checkpoint(const Case& description, const RunOptions& op
                     "materials, laws, time step, domain, walls or particle count differ from " +
                     description.source + ")");
   }
-  if (const std::string misfit =
-          checkpoint_misfit(restored, scene, description.materials.size(),
-                            keep != nullptr ? keep->size() : restored.particles.size());
+  if (const std::string misfit = checkpoint_misfit(
+          restored, scene, description.materials.size(),
+          keep != nullptr ? keep->size() : restored.particles.size(), case_particles);
       !misfit.empty()) {
     throw CaseError(options.restart_path + ": checkpoint does not fit the case: it holds " +
                     misfit);
@@ -503,7 +505,8 @@ RunResult run_case(Case description, const RunOptions& options, std::ostream& lo
   std::optional<Stepper> stepper;
   std::string history_text;  // of the checkpoint a restart continues
   if (plan.restarting) {
-    Checkpoint restored = read_fitting_checkpoint(description, options, plan, scene);
+    Checkpoint restored =
+        read_fitting_checkpoint(description, options, plan, scene, scene.particles.size());
     plan.first_step = restored.stepper.step;
     scene.particles = std::move(restored.particles);
     // A restart that writes VTK frames the interrupted run did not track displacements from

@@ -539,11 +539,12 @@ struct RestartCuts {
 /// processes, and the run's totals, which every process holds.
 class DistributedRun {
  public:
-  /// Distribute @p all (the whole run's particles, with @p state; their bisection weights
-  /// @p costs, stepping_costs()) over the processes, each part a copy of @p frame (the run's scene
-  /// without its particles) with its particles.
-  DistributedRun(Scene frame, const Particles& all, const StepperState& state,
-                 const std::vector<double>& costs, const std::optional<RestartCuts>& cuts = {})
+  /// Distribute @p all (the whole run's particles, or with @p cuts a restart's part of them
+  /// read by this process, with @p state; their bisection weights @p costs, stepping_costs())
+  /// over the processes, each part a copy of @p frame (the run's scene without its particles)
+  /// with its particles.
+  DistributedRun(Scene frame, Particles all, StepperState state, const std::vector<double>& costs,
+                 const std::optional<RestartCuts>& cuts = {})
       : frame_(std::move(frame)),
         thermal_(all.thermal()),
         contacts_(state.contacts),
@@ -551,7 +552,7 @@ class DistributedRun {
         bonds_broken_(state.bonds_broken),
         removed_(state.removed) {
     adopt_layout(all);
-    distribute(all, state, costs, cuts);
+    distribute(std::move(all), std::move(state), costs, cuts);
   }
 
   /// Start a fresh run from this process's own particles @p owned (those @p decomposition gives
@@ -862,7 +863,7 @@ class DistributedRun {
 
   /// Bisect @p all over the processes and take this process's part, continuing @p state; then
   /// list what to send to each process after every step and where its particles go.
-  void distribute(const Particles& all, const StepperState& state, const std::vector<double>& cost,
+  void distribute(Particles all, StepperState state, const std::vector<double>& cost,
                   const std::optional<RestartCuts>& cuts = {}) {
     const int size = world_size();
     const int rank = world_rank();
@@ -873,8 +874,30 @@ class DistributedRun {
                                           Box{probe.domain.min, probe.domain.max}, size, halo);
     decomposition_ = d;
     halo_ = halo;
+    // Each process sends the owned particles in another's halo, by id; the other receives them
+    // into its ghosts of the same ids, in the same order. The ids are listed before the part
+    // takes @p all.
+    std::vector<int> owner(all.size());
+    for (std::size_t i = 0; i < all.size(); ++i) owner[i] = d.owner(all.x[i], all.y[i], all.z[i]);
+    std::vector<std::vector<std::int64_t>> sent_ids(static_cast<std::size_t>(size));
+    std::vector<std::vector<std::int64_t>> received_ids(static_cast<std::size_t>(size));
+    const std::vector<std::uint32_t> mine =
+        subdomain_members(d, rank, probe.domain, halo, all.x, all.y, all.z);
+    for (int r = 0; r < size; ++r) {
+      if (r == rank) continue;
+      std::vector<std::int64_t>& sent = sent_ids[static_cast<std::size_t>(r)];
+      for (const std::uint32_t i :
+           subdomain_members(d, r, probe.domain, halo, all.x, all.y, all.z)) {
+        if (owner[i] == rank) sent.push_back(all.id[i]);
+      }
+      std::vector<std::int64_t>& received = received_ids[static_cast<std::size_t>(r)];
+      for (const std::uint32_t i : mine) {
+        if (owner[i] == r) received.push_back(all.id[i]);
+      }
+    }
+    std::vector<int>().swap(owner);
     part_.stepper.reset();  // before the scene it steps
-    part_ = make_rank_part(frame_, d, rank, halo, all, state);
+    part_ = make_rank_part(frame_, d, rank, halo, std::move(all), std::move(state));
     adopt(*part_.stepper);
 
     // Where each particle of the part sits, by id.
@@ -883,33 +906,23 @@ class DistributedRun {
     for (std::size_t k = 0; k < p.size(); ++k)
       index_of[k] = {p.id[k], static_cast<std::uint32_t>(k)};
     std::sort(index_of.begin(), index_of.end());
-    const auto local_index = [&](std::int64_t id) {
-      return std::lower_bound(index_of.begin(), index_of.end(), std::pair(id, std::uint32_t{0}))
-          ->second;
+    const auto local_indices = [&](std::vector<std::int64_t>& ids) {
+      std::sort(ids.begin(), ids.end());
+      std::vector<std::uint32_t> indices(ids.size());
+      for (std::size_t k = 0; k < ids.size(); ++k) {
+        indices[k] =
+            std::lower_bound(index_of.begin(), index_of.end(), std::pair(ids[k], std::uint32_t{0}))
+                ->second;
+      }
+      return indices;
     };
-    // Each process sends the owned particles in another's halo, by id; the other receives them
-    // into its ghosts of the same ids, in the same order.
-    std::vector<int> owner(all.size());
-    for (std::size_t i = 0; i < all.size(); ++i) owner[i] = d.owner(all.x[i], all.y[i], all.z[i]);
     sends_.assign(static_cast<std::size_t>(size), {});
     receives_.assign(static_cast<std::size_t>(size), {});
-    const std::vector<std::uint32_t> mine =
-        subdomain_members(d, rank, probe.domain, halo, all.x, all.y, all.z);
     for (int r = 0; r < size; ++r) {
       if (r == rank) continue;
-      std::vector<std::pair<std::int64_t, std::uint32_t>> sent;
-      for (const std::uint32_t i :
-           subdomain_members(d, r, probe.domain, halo, all.x, all.y, all.z)) {
-        if (owner[i] == rank) sent.emplace_back(all.id[i], local_index(all.id[i]));
-      }
-      std::sort(sent.begin(), sent.end());
-      for (const auto& [id, k] : sent) sends_[static_cast<std::size_t>(r)].push_back(k);
-      std::vector<std::pair<std::int64_t, std::uint32_t>> received;
-      for (const std::uint32_t i : mine) {
-        if (owner[i] == r) received.emplace_back(all.id[i], local_index(all.id[i]));
-      }
-      std::sort(received.begin(), received.end());
-      for (const auto& [id, k] : received) receives_[static_cast<std::size_t>(r)].push_back(k);
+      sends_[static_cast<std::size_t>(r)] = local_indices(sent_ids[static_cast<std::size_t>(r)]);
+      receives_[static_cast<std::size_t>(r)] =
+          local_indices(received_ids[static_cast<std::size_t>(r)]);
     }
   }
 
@@ -1274,10 +1287,10 @@ class DistributedRun {
     for (const SlipRecord& s : mine.slips) {
       if (part_.owns(s.first_id)) slips.push_back(s);
     }
-    const Particles all = particles_from(gathered(std::move(records)));
-    StepperState state = redistribution_state(mine, all, gathered(std::move(slips)));
+    Particles all = particles_from(gathered(std::move(records)));
+    StepperState state = redistribution_state(std::move(mine), all, gathered(std::move(slips)));
     ++state.list.builds;  // the step's build
-    distribute(all, state, gathered(std::move(owned_costs)));
+    distribute(std::move(all), std::move(state), gathered(std::move(owned_costs)));
   }
 
   /// The load above the mean (by stepping_costs()) at which a rebuild moves the cuts.
@@ -1372,8 +1385,9 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
       check_output_fields(description, *scene, history_text);
       return;
     }
-    scene.emplace(build_scene(description));
-    // As in run_case: the scene holds the particles, the plan what was derived from them.
+    // The checkpoint holds the particles: the case's only count, and set the layout.
+    const std::size_t case_particles = description.particles.size();
+    scene.emplace(build_scene(description, {}));
     std::vector<ParticleSpec>().swap(description.particles);
     std::vector<SlipRecord>().swap(description.initial_pairs);
     // Each process reads only its part of the checkpoint: the cuts come from every particle's
@@ -1405,7 +1419,8 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
         keep[k] = 1;
       }
     }
-    Checkpoint restored = read_fitting_checkpoint(description, options, plan, *scene, &keep);
+    Checkpoint restored =
+        read_fitting_checkpoint(description, options, plan, *scene, case_particles, &keep);
     plan.first_step = restored.stepper.step;
     scene->particles = std::move(restored.particles);
     // As in run_case: displacements from here when the interrupted run did not track them.
@@ -1429,10 +1444,10 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
   }
   std::optional<DistributedRun> run_part;
   if (plan.restarting) {
-    const Particles all = std::move(scene->particles);
-    scene->particles = Particles{};
+    Particles part = std::move(scene->particles);
+    scene->particles = part.selected({});
     scene->initial_pairs = std::vector<SlipRecord>{};
-    run_part.emplace(std::move(*scene), all, state, costs, restart_cuts);
+    run_part.emplace(std::move(*scene), std::move(part), std::move(state), costs, restart_cuts);
   } else {
     // No process holds the whole scene: each builds its own particles, and the parts evaluate
     // the initial forces (each owned particle's are the run in one process's).

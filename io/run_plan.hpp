@@ -38,11 +38,14 @@ struct RunPlan {
 /// count, the output intervals and the output paths. Throws CaseError.
 RunPlan plan_run(const Case& description, const RunOptions& options);
 
-/// The checkpoint options.restart_path, checked to come from @p description, to fit @p scene and
-/// to end before the plan's last step; with @p keep, only the rows it marks (read_checkpoint()).
+/// The checkpoint options.restart_path, checked to come from @p description, to fit @p scene (its
+/// layout: the particles need not be there) and the case's @p case_particles particles, and to
+/// end before the plan's last step; with @p keep, only the rows it marks (read_checkpoint()). Its
+/// pairs are streamed (CheckpointScope::pairs_streamed) to the Stepper its state restores.
 /// Throws CaseError.
 Checkpoint read_fitting_checkpoint(const Case& description, const RunOptions& options,
                                    const RunPlan& plan, const Scene& scene,
+                                   std::size_t case_particles,
                                    const std::vector<std::uint8_t>* keep = nullptr);
 
 /// Refuses, before any output is written, an output.history_fields name without a column in

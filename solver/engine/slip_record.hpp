@@ -4,6 +4,7 @@
 /// what a case that starts from another run's state (initial_state) takes over.
 
 #include <cstdint>
+#include <functional>
 
 namespace bondem {
 
@@ -17,5 +18,9 @@ struct SlipRecord {
   std::uint8_t bonded = 0;
   std::uint8_t joined = 0;
 };
+
+/// Visits a set of pair records, one at a time (by value of a checkpoint read as it is visited:
+/// the records are never all in memory).
+using SlipSource = std::function<void(const std::function<void(const SlipRecord&)>&)>;
 
 }  // namespace bondem

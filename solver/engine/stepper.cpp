@@ -67,7 +67,8 @@ Stepper::Stepper(Scene& scene, StepperState restored, CarriedPairs carried, Pair
   restored.list = NeighborListState{};
   CarriedPairs records = carried_from(restored.slips);
   restored.slips = std::vector<SlipRecord>{};
-  carry_pairs(std::move(carried), std::move(records));
+  carry_pairs(std::move(carried), std::move(records), restored.slip_source);
+  restored.slip_source = {};  // closes a checkpoint it reads
   if (restored.boundaries.size() != kBoundaryStateValues * scene_.boundaries.size()) {
     throw std::invalid_argument("saved state does not match the case's boundaries");
   }
@@ -240,12 +241,14 @@ Stepper::CarriedPairs Stepper::release_pairs() {
   return carried;
 }
 
-void Stepper::carry_pairs(CarriedPairs carried, CarriedPairs more) {
-  // Pair slots are indexed by the new list: start them clean, then refill by ids.
+void Stepper::carry_pairs(CarriedPairs carried, CarriedPairs more, const SlipSource& streamed) {
+  // Pair slots are indexed by the new list: start them clean, then refill by ids, the lowest
+  // precedence first (each source overwrites what the one before set).
   const std::size_t pairs = list_.pair_count();
   const bool extended = scene_.particles.contact_history;
   history_.resize(pairs, scene_.friction, extended);
   assign_zeros(pair_forces_.bonded, pairs);
+  if (streamed) fill_streamed_pairs(streamed);
   if (!carried.keys.empty() || !more.keys.empty()) {
     // Key each pair by its ids, smaller first; the springs belong to the first particle's side,
     // so they change sign when the list now sees the pair the other way round. By value:
@@ -269,27 +272,57 @@ void Stepper::carry_pairs(CarriedPairs carried, CarriedPairs more) {
             keys.begin(), keys.end(), wanted,
             [&](const Key& r, const auto& w) { return key(r.first_id, r.second_id) < w; });
         if (found == keys.end() || key(found->first_id, found->second_id) != wanted) continue;
-        const PairHistory& from = source->history;
-        const std::uint32_t s = found->slot;
-        pair_forces_.bonded[k] = source->bonded[s];
-        const double sign = found->first_id == p.id[i] ? 1.0 : -1.0;
-        if (scene_.friction) {
-          history_.sx[k] = sign * from.sx[s];
-          history_.sy[k] = sign * from.sy[s];
-          history_.sz[k] = sign * from.sz[s];
-        }
-        if (extended) {
-          history_.rx[k] = sign * from.rx[s];
-          history_.ry[k] = sign * from.ry[s];
-          history_.rz[k] = sign * from.rz[s];
-          history_.joined[k] = from.joined[s];
-        }
+        set_pair_slot(k, source->record(static_cast<std::size_t>(found - keys.begin())),
+                      found->first_id == p.id[i] ? 1.0 : -1.0);
         return;
       }
     });
   }
   carried = CarriedPairs{};
   more = CarriedPairs{};
+}
+
+void Stepper::fill_streamed_pairs(const SlipSource& streamed) {
+  const Particles& p = scene_.particles;
+  std::vector<std::pair<std::int64_t, std::uint32_t>> index_of(p.size());
+  for (std::size_t k = 0; k < p.size(); ++k) index_of[k] = {p.id[k], static_cast<std::uint32_t>(k)};
+  std::sort(index_of.begin(), index_of.end());
+  const auto local = [&](std::int64_t id) -> std::optional<std::uint32_t> {
+    const auto found =
+        std::lower_bound(index_of.begin(), index_of.end(), std::pair(id, std::uint32_t{0}));
+    if (found == index_of.end() || found->first != id) return std::nullopt;
+    return found->second;
+  };
+  const StaggeredVector<std::uint32_t>& row_begin = list_.row_begins();
+  // The slots of the pair in the row of @p first whose second is @p second.
+  const auto fill_row = [&](std::uint32_t first, std::uint32_t second, const SlipRecord& record,
+                            double sign) {
+    for (std::uint32_t k = row_begin[first]; k < row_begin[first + 1]; ++k) {
+      if (list_.second(k) == second) set_pair_slot(k, record, sign);
+    }
+  };
+  streamed([&](const SlipRecord& record) {
+    const std::optional<std::uint32_t> i = local(record.first_id);
+    const std::optional<std::uint32_t> j = local(record.second_id);
+    if (!i || !j) return;
+    fill_row(*i, *j, record, 1.0);
+    if (*i != *j) fill_row(*j, *i, record, -1.0);
+  });
+}
+
+void Stepper::set_pair_slot(std::uint32_t k, const SlipRecord& record, double sign) {
+  pair_forces_.bonded[k] = record.bonded;
+  if (scene_.friction) {
+    history_.sx[k] = sign * record.sx;
+    history_.sy[k] = sign * record.sy;
+    history_.sz[k] = sign * record.sz;
+  }
+  if (scene_.particles.contact_history) {
+    history_.rx[k] = sign * record.rx;
+    history_.ry[k] = sign * record.ry;
+    history_.rz[k] = sign * record.rz;
+    history_.joined[k] = record.joined;
+  }
 }
 
 void Stepper::rebuild_list() {

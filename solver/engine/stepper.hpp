@@ -60,6 +60,9 @@ struct StepperState {
   ContactSummary contacts;
   NeighborListState list;
   std::vector<SlipRecord> slips;  ///< springs and bond flags of the pairs in contact
+  /// When set, visits further pairs' records, read as the restoring stepper takes them (a
+  /// checkpoint's, read_checkpoint() with pairs_streamed): they need no room beside its pair slots.
+  SlipSource slip_source;
   /// Pose of every boundary, kBoundaryStateValues each: centre, velocity, angle, angular velocity.
   std::vector<double> boundaries;
   std::int64_t bonds_formed = 0;       ///< bonds formed so far
@@ -269,9 +272,15 @@ class Stepper {
   /// their place.
   CarriedPairs release_pairs();
   /// Clean pair slots for the current list, refilled from @p carried by particle ids (then from
-  /// @p more, for the pairs @p carried lacks); the force slots are allocated once both are freed,
-  /// so that a rebuild's peak stays below a step's.
-  void carry_pairs(CarriedPairs carried, CarriedPairs more = {});
+  /// @p more, then from @p streamed, for the pairs the former lack); the force slots are
+  /// allocated once all are freed, so that a rebuild's peak stays below a step's.
+  void carry_pairs(CarriedPairs carried, CarriedPairs more = {}, const SlipSource& streamed = {});
+  /// Fill the pair slots of the current list from the records @p streamed visits, each found by
+  /// its particles' ids (a record of a particle not here is passed over).
+  void fill_streamed_pairs(const SlipSource& streamed);
+  /// Pair slot @p k from @p record, its springs seen from the first particle of the slot's pair
+  /// (@p sign -1 when the record names the pair the other way round).
+  void set_pair_slot(std::uint32_t k, const SlipRecord& record, double sign);
   /// Whether slot @p k of @p history and @p bonded holds state: a spring, an EPSD rolling spring,
   /// a JKR hold or a bond.
   bool carries_state(const PairHistory& history, const StaggeredVector<std::uint8_t>& bonded,

@@ -29,30 +29,39 @@ Scene scene_frame(const Case& c) {
 }
 
 RankPart make_rank_part(const Case& c, const Decomposition& decomposition, int rank, double halo,
-                        const Particles& all, const StepperState& state) {
-  return make_rank_part(scene_frame(c), decomposition, rank, halo, all, state);
+                        Particles all, StepperState state) {
+  return make_rank_part(scene_frame(c), decomposition, rank, halo, std::move(all),
+                        std::move(state));
 }
 
 RankPart make_rank_part(const Scene& frame, const Decomposition& decomposition, int rank,
-                        double halo, const Particles& all, const StepperState& state) {
+                        double halo, Particles all, StepperState state) {
   RankPart part;
   part.scene = std::make_unique<Scene>(frame);
   const std::vector<std::uint32_t> members =
       subdomain_members(decomposition, rank, part.scene->domain, halo, all.x, all.y, all.z);
-  part.scene->particles = all.selected(members);
-  StepperState restored = state;
-  for (StaggeredVector<double>* axis : {&restored.list.x0, &restored.list.y0, &restored.list.z0}) {
-    StaggeredVector<double> subset(members.size());
-    for (std::size_t k = 0; k < members.size(); ++k) subset[k] = (*axis)[members[k]];
-    axis->swap(subset);
-  }
   for (const std::uint32_t i : members) {
     if (decomposition.owner(all.x[i], all.y[i], all.z[i]) == rank) {
       part.owned_ids.push_back(all.id[i]);
     }
   }
   std::sort(part.owned_ids.begin(), part.owned_ids.end());
-  part.stepper = std::make_unique<Stepper>(*part.scene, std::move(restored));
+  bool every_one_in_order = members.size() == all.size();
+  for (std::size_t k = 0; every_one_in_order && k < members.size(); ++k) {
+    every_one_in_order = members[k] == k;
+  }
+  if (every_one_in_order) {
+    part.scene->particles = std::move(all);
+  } else {
+    part.scene->particles = all.selected(members);
+    for (StaggeredVector<double>* axis : {&state.list.x0, &state.list.y0, &state.list.z0}) {
+      StaggeredVector<double> subset(members.size());
+      for (std::size_t k = 0; k < members.size(); ++k) subset[k] = (*axis)[members[k]];
+      axis->swap(subset);
+    }
+  }
+  all = Particles{};
+  part.stepper = std::make_unique<Stepper>(*part.scene, std::move(state));
   part.stepper->count_only(part.owned_ids);
   return part;
 }

@@ -43,13 +43,14 @@ struct RankPart {
 /// run; its particles are not read: pass it without them, scene_frame()) with the owned particles
 /// and those within @p halo, its stepper continuing @p state (whose list build positions are
 /// those of @p all; its pairs' state is taken by the particles' ids), counting only the owned
-/// particles' share (Stepper::count_only).
+/// particles' share (Stepper::count_only). When @p all holds just the part's particles (a
+/// restart that read only them), the part takes them without a copy.
 RankPart make_rank_part(const Scene& frame, const Decomposition& decomposition, int rank,
-                        double halo, const Particles& all, const StepperState& state);
+                        double halo, Particles all, StepperState state);
 
 /// The same, with the frame built from case @p c.
 RankPart make_rank_part(const Case& c, const Decomposition& decomposition, int rank, double halo,
-                        const Particles& all, const StepperState& state);
+                        Particles all, StepperState state);
 
 /// The scene of case @p c without its particles and initial pairs: what every rank part copies.
 Scene scene_frame(const Case& c);
