@@ -261,16 +261,16 @@ class IdStream {
     }
     std::sort(rows_.begin(), rows_.end(),
               [&](std::uint32_t a, std::uint32_t b) { return p.id[a] < p.id[b]; });
-    std::vector<std::int64_t> ids(rows_.size());
-    for (std::size_t k = 0; k < rows_.size(); ++k) ids[k] = p.id[rows_[k]];
     // Chunks by id, kChunk ids each: ids are below the next free one, so few chunks are empty.
-    std::int64_t largest = ids.empty() ? -1 : ids.back();
+    std::int64_t largest = rows_.empty() ? -1 : p.id[rows_.back()];
     MPI_Allreduce(MPI_IN_PLACE, &largest, 1, MPI_INT64_T, MPI_MAX, MPI_COMM_WORLD);
     const auto chunk_ids = static_cast<std::int64_t>(kChunk);
     const std::int64_t chunks = largest / chunk_ids + 1;
     for (std::int64_t c = 0; c <= chunks; ++c) {  // rows_[cuts_[c], cuts_[c + 1]): chunk c's
       cuts_.push_back(static_cast<std::size_t>(
-          std::lower_bound(ids.begin(), ids.end(), c * chunk_ids) - ids.begin()));
+          std::lower_bound(rows_.begin(), rows_.end(), c * chunk_ids,
+                           [&](std::uint32_t row, std::int64_t id) { return p.id[row] < id; }) -
+          rows_.begin()));
     }
     // Rank 0 learns which process holds each particle of the run by id, merging the processes'
     // sorted ids a chunk at a time (a whole run's ids at once would be 8 B a particle more).
@@ -280,10 +280,9 @@ class IdStream {
     if (root) source_.reserve(total_);
     for (std::size_t c = 0; c + 1 < cuts_.size(); ++c) {
       std::vector<std::int64_t> bytes;
-      const std::vector<std::int64_t> all = gathered(
-          std::vector<std::int64_t>(ids.begin() + static_cast<std::ptrdiff_t>(cuts_[c]),
-                                    ids.begin() + static_cast<std::ptrdiff_t>(cuts_[c + 1])),
-          true, &bytes);
+      std::vector<std::int64_t> ids(cuts_[c + 1] - cuts_[c]);
+      for (std::size_t k = 0; k < ids.size(); ++k) ids[k] = p.id[rows_[cuts_[c] + k]];
+      const std::vector<std::int64_t> all = gathered(std::move(ids), true, &bytes);
       if (!root) continue;
       GatheredRuns runs(bytes, sizeof(std::int64_t));
       for (std::size_t k = 0; k < all.size(); ++k) {
