@@ -29,7 +29,7 @@ int main(int argc, char** argv) {
     if (rank_counts.empty()) rank_counts = {2, 4, 8, 16};
     std::vector<char> record;
     bondem::pack_particle(p, 0, record);
-    const double halo = bondem::decomposition_halo(p, scene.skin);
+    const double halo = bondem::decomposition_halo(p, scene);
     std::printf("%s: %zu particles, halo %.4g m, %zu B per particle record\n", argv[1], p.size(),
                 halo, record.size());
     std::printf(

@@ -523,8 +523,8 @@ struct WholeRun {
 /// The halo of a distribution of @p all in @p frame: a stream may add particles larger than any
 /// present, so it reaches the run's largest radius.
 double distribution_halo(const Particles& all, const Scene& frame) {
-  return std::max(decomposition_halo(all, frame.skin),
-                  2.0 * frame.largest_radius + 2.0 * frame.skin);
+  return std::max(decomposition_halo(all, frame),
+                  2.0 * frame.largest_radius + frame.contact_range + 2.0 * frame.skin);
 }
 
 /// The cuts of a restart, decided from every particle's position before each process reads only
@@ -1327,7 +1327,7 @@ std::optional<DistributedRun> start_fresh(Case& description) {
   const std::vector<ParticleSpec>& specs = description.particles;
   const std::size_t n = specs.size();
   // The halo reaches the largest radius of the run, streams' included.
-  const double halo = 2.0 * frame.largest_radius + 2.0 * frame.skin;
+  const double halo = 2.0 * frame.largest_radius + frame.contact_range + 2.0 * frame.skin;
   std::vector<std::uint32_t> mine;
   Decomposition decomposition;
   {

@@ -74,7 +74,7 @@ class DecomposedRun {
   /// Bisects @p all by particle count and gives each rank its part, continuing @p state.
   void distribute(const Particles& all, const StepperState& state) {
     const Scene probe = build_scene(case_);
-    const double halo = decomposition_halo(all, probe.skin);
+    const double halo = decomposition_halo(all, probe);
     const std::vector<double> cost(all.size(), 1.0);
     const Decomposition d = bisect(all.x, all.y, all.z, cost, all.id,
                                    Box{probe.domain.min, probe.domain.max}, ranks_, halo);
@@ -189,10 +189,11 @@ bool shares_add_up(const DecomposedRun& parts, const Stepper& whole) {
 /// Runs the storage-order case (its text with @p appended) whole and on @p ranks ranks for
 /// @p steps steps; every owned particle must have the whole run's position, velocity and spin.
 /// Returns the whole run's last contact summary.
-ContactSummary expect_decomposed_run_follows(const std::string& appended, int ranks, int steps) {
+ContactSummary expect_decomposed_run_follows(const std::string& appended, int ranks, int steps,
+                                             const std::vector<std::string>& overrides = {}) {
   const Case c =
       parse_case(testing::file_bytes(BONDEM_TEST_CASES_DIR "/storage_order.yaml") + appended,
-                 "storage_order.yaml");
+                 "storage_order.yaml", overrides);
   Scene whole = build_scene(c);
   Stepper reference(whole);
   DecomposedRun parts(c, ranks, whole.particles, reference.save_state());
@@ -229,6 +230,43 @@ TEST(DecomposedRun, CohesiveRunFollowsTheWholeRunBitForBit) {
       "    cohesion: {model: jkr, surface_energy: 0.05}\n",
       2, 2000);
   EXPECT_GT(contacts.contacts, 100u);
+}
+
+TEST(DecomposedRun, TheHaloHoldsEveryListPartnerOfCohesionReachingBeyondTheSkin) {
+  // A JKR contact holds up to its separation distance past touching, so the list reaches
+  // r_i + r_j + skin + that range. A particle on a subdomain's face must find every list partner
+  // among the ghosts: the halo must exceed every pair's distance at the build, which
+  // 2 r_max + 2 skin does not when the range passes the skin (nearly one size here, so that no
+  // pair of smaller spheres leaves the halo room to spare).
+  const std::string strong =
+      "interactions:\n"
+      "  - materials: [powder, powder]\n"
+      "    cohesion: {model: jkr, surface_energy: 5.0}\n";
+  const Case c = parse_case(
+      testing::file_bytes(BONDEM_TEST_CASES_DIR "/storage_order.yaml") + strong,
+      "storage_order.yaml",
+      {"neighbors.skin=5.0e-7", "insert.0.radius.min=0.2599e-3", "insert.0.radius.max=0.26e-3"});
+  Scene settled = build_scene(c);
+  ASSERT_GT(settled.contact_range, 4.0 * settled.skin) << "the test needs a reach beyond the skin";
+  {
+    Stepper stepper(settled);
+    for (int s = 0; s < 1500; ++s) stepper.step();  // a bed, with pairs near their reach
+  }
+  Scene scene = build_scene(c);
+  scene.particles = settled.particles;
+  const Stepper built(scene);  // its list built at these positions
+  const Particles& p = scene.particles;
+  const double halo = decomposition_halo(p, scene);
+  double r_max = 0.0;
+  for (const double r : p.radius) r_max = std::max(r_max, r);
+  std::size_t beyond_two_skins = 0, outside = 0;
+  built.neighbors().for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
+    const double distance = built.neighbors().separation(p, i, j, k).norm();
+    beyond_two_skins += distance > 2.0 * r_max + 2.0 * scene.skin ? 1 : 0;
+    outside += distance >= halo ? 1 : 0;
+  });
+  EXPECT_GT(beyond_two_skins, 50u) << "pairs the list holds beyond 2 r_max + 2 skin";
+  EXPECT_EQ(outside, 0u) << "list partners farther apart than the halo " << halo << " m";
 }
 
 TEST(DecomposedRun, EveryParticleFollowsTheWholeRunBitForBit) {

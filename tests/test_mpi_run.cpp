@@ -55,7 +55,7 @@ class MpiRankRun {
  private:
   void distribute(const Particles& all, const StepperState& state) {
     const Scene probe = build_scene(case_);
-    const double halo = decomposition_halo(all, probe.skin);
+    const double halo = decomposition_halo(all, probe);
     const std::vector<double> cost(all.size(), 1.0);
     const Decomposition d = bisect(all.x, all.y, all.z, cost, all.id,
                                    Box{probe.domain.min, probe.domain.max}, world_size(), halo);

@@ -5,10 +5,10 @@
 
 namespace bondem {
 
-double decomposition_halo(const Particles& particles, double skin) {
+double decomposition_halo(const Particles& particles, const Scene& scene) {
   double r_max = 0.0;
   for (const double r : particles.radius) r_max = std::max(r_max, r);
-  return 2.0 * r_max + 2.0 * skin;
+  return 2.0 * r_max + scene.contact_range + 2.0 * scene.skin;
 }
 
 std::vector<double> stepping_costs(const Stepper& stepper) {

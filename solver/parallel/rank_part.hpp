@@ -15,10 +15,11 @@
 
 namespace bondem {
 
-/// The halo of a decomposed run of @p particles: the largest pair reach (2 r_max) plus twice the
-/// @p skin (a partner in the list was within r_i + r_j + skin at the build, and each has moved
-/// less than half a skin since), so that each owned particle's step depends on the halo alone.
-double decomposition_halo(const Particles& particles, double skin);
+/// The halo of a decomposed run of @p particles in @p scene: the largest pair reach (2 r_max, plus
+/// the JKR separation distance scene.contact_range) plus twice the skin (a partner in the list was
+/// within r_i + r_j + contact_range + skin at the build, and each has moved less than half a skin
+/// since), so that each owned particle's step depends on the halo alone.
+double decomposition_halo(const Particles& particles, const Scene& scene);
 
 /// The weights that bisect() balances, per particle of @p stepper's scene in its order: 1 plus
 /// the pairs of the neighbor list the particle belongs to, the work of its sweeps and of its
