@@ -538,20 +538,18 @@ struct RestartCuts {
 /// processes, and the run's totals, which every process holds.
 class DistributedRun {
  public:
-  /// Distribute @p all (the whole run's particles, or with @p cuts a restart's part of them
-  /// read by this process, with @p state; their bisection weights @p costs, stepping_costs())
-  /// over the processes, each part a copy of @p frame (the run's scene without its particles)
-  /// with its particles.
-  DistributedRun(Scene frame, Particles all, StepperState state, const std::vector<double>& costs,
-                 const std::optional<RestartCuts>& cuts = {})
+  /// Continue a restart from @p part, the rows of the checkpoint this process read (its part
+  /// under @p cuts, owned and halo), with @p state: this process's part is a copy of @p frame
+  /// (the run's scene without its particles) with those particles.
+  DistributedRun(Scene frame, Particles part, StepperState state, const RestartCuts& cuts)
       : frame_(std::move(frame)),
-        thermal_(all.thermal()),
+        thermal_(part.thermal()),
         contacts_(state.contacts),
         bonds_formed_(state.bonds_formed),
         bonds_broken_(state.bonds_broken),
         removed_(state.removed) {
-    adopt_layout(all);
-    distribute(std::move(all), std::move(state), costs, cuts);
+    adopt_layout(part);
+    distribute(std::move(part), std::move(state), cuts);
   }
 
   /// Start a fresh run from this process's own particles @p owned (those @p decomposition gives
@@ -592,7 +590,7 @@ class DistributedRun {
       wrap_periodic_positions(part_.scene->particles, part_.scene->domain);
       wrap_periodic_positions(arriving_, part_.scene->domain);
       mark_outside();
-      if (!migrate()) redistribute();
+      rebuild_parts();
       arriving_ = Particles{};
       timer_.lap(Phase::kRedistribute);
     } else {
@@ -860,17 +858,14 @@ class DistributedRun {
     return all;
   }
 
-  /// Bisect @p all over the processes and take this process's part, continuing @p state; then
-  /// list what to send to each process after every step and where its particles go.
-  void distribute(Particles all, StepperState state, const std::vector<double>& cost,
-                  const std::optional<RestartCuts>& cuts = {}) {
+  /// Take this process's part of @p all under @p cuts, continuing @p state; then list what to
+  /// send to each process after every step and where its particles go.
+  void distribute(Particles all, StepperState state, const RestartCuts& cuts) {
     const int size = world_size();
     const int rank = world_rank();
     const Scene& probe = frame_;
-    const double halo = cuts ? cuts->halo : distribution_halo(all, probe);
-    const Decomposition d = cuts ? cuts->decomposition
-                                 : bisect(all.x, all.y, all.z, cost, all.id,
-                                          Box{probe.domain.min, probe.domain.max}, size, halo);
+    const double halo = cuts.halo;
+    const Decomposition& d = cuts.decomposition;
     decomposition_ = d;
     halo_ = halo;
     // Each process sends the owned particles in another's halo, by id; the other receives them
@@ -1052,30 +1047,36 @@ class DistributedRun {
     return values_of<SlipRecord>(bondem::exchanged(out, counts));
   }
 
-  /// At a rebuild whose cuts still balance the work (the most loaded process within
-  /// kRebalanceAbove of the mean, by stepping_costs()): the particles that crossed a cut go to
-  /// their new owners with the state of the pairs they lead, then each process sends the others
-  /// its particles in their halos, whole, with the pairs those lead; nothing else travels.
-  /// Returns false, having changed nothing, when the cuts no longer balance the work.
-  bool migrate() {
-    const int size = world_size();
-    const int rank = world_rank();
-    const auto processes = static_cast<std::size_t>(size);
+  /// At a rebuild: the particles go to the owners of their new positions with the state of the
+  /// pairs they lead, then each process sends the others its particles in their halos, whole,
+  /// with the pairs those lead. The cuts stay (a migration: only the particles that crossed one
+  /// travel) while the most loaded process is within kRebalanceAbove of the mean, by
+  /// stepping_costs(); otherwise they move first (a redistribution).
+  void rebuild_parts() {
     const Particles& p = part_.scene->particles;
+    const std::vector<double> costs = stepping_costs(*part_.stepper);  // of the last list
     double load[2] = {0.0, 0.0};  // the most loaded process's, and the total
-    {
-      const std::vector<double> costs = stepping_costs(*part_.stepper);  // of the last list
-      for (std::size_t k = 0; k < p.size(); ++k) {
-        if (part_.owns(p.id[k])) load[0] += costs[k];
-      }
+    for (std::size_t k = 0; k < p.size(); ++k) {
+      if (part_.owns(p.id[k])) load[0] += costs[k];
     }
     load[1] = load[0];
     MPI_Allreduce(MPI_IN_PLACE, &load[0], 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
     MPI_Allreduce(MPI_IN_PLACE, &load[1], 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
-    if (load[0] > (1.0 + kRebalanceAbove) * load[1] / size) return false;
-    ++migrations_;
+    if (load[0] > (1.0 + kRebalanceAbove) * load[1] / world_size()) {
+      ++redistributions_;
+      decomposition_ = balanced_cuts(costs);
+    } else {
+      ++migrations_;
+    }
+    move_to_owners();
+  }
 
-    // 1. Each owned particle to the owner of its position, with the pairs it leads.
+  /// Each owned particle (and each of a stream's that arrive) to the owner of its position under
+  /// decomposition_, with the state of the pairs it leads; then the new halos (take_part).
+  void move_to_owners() {
+    const int rank = world_rank();
+    const auto processes = static_cast<std::size_t>(world_size());
+    const Particles& p = part_.scene->particles;
     Particles next;
     std::vector<SlipRecord> arrived_slips;  // of the pairs the arriving particles lead
     Stepper::CarriedPairs kept_pairs;       // of the pairs the kept particles lead
@@ -1136,7 +1137,6 @@ class DistributedRun {
     state.removed = removed_;
     take_part(std::move(next), owned, std::move(arrived_slips), std::move(state), 0,
               std::move(kept_pairs));
-    return true;
   }
 
   /// With the first @p owned particles of @p next this process's own from now on: sends every
@@ -1260,36 +1260,37 @@ class DistributedRun {
     part_ = std::move(fresh);
   }
 
-  /// At a rebuild that would unbalance the cuts: every process's owned particles and pairs' state,
-  /// distributed anew over cuts of the particles' new positions (migration and rebalancing).
-  void redistribute() {
-    ++redistributions_;
+  /// New cuts of the owned particles' positions, weighted by their @p costs (stepping_costs(); a
+  /// stream's arriving particles weigh 1), found from sums across the processes without any
+  /// holding more than its own (bisect_spread()).
+  Decomposition balanced_cuts(const std::vector<double>& costs) const {
     const Particles& p = part_.scene->particles;
-    const std::vector<double> costs = stepping_costs(*part_.stepper);  // of the last list
-    std::vector<char> records;
-    std::vector<double> owned_costs;
+    std::vector<double> x, y, z, cost;
+    const auto add = [&](const Particles& from, std::size_t k, double weight) {
+      x.push_back(from.x[k]);
+      y.push_back(from.y[k]);
+      z.push_back(from.z[k]);
+      cost.push_back(weight);
+    };
     for (std::size_t k = 0; k < p.size(); ++k) {
-      if (!part_.owns(p.id[k]) || outside_[k] != 0) continue;  // outside: removed
-      pack_particle(p, k, records);
-      owned_costs.push_back(costs[k]);
+      if (part_.owns(p.id[k]) && outside_[k] == 0) add(p, k, costs[k]);  // outside: removed
     }
     if (world_rank() == 0) {  // a stream's new particles, which every process holds
       for (std::size_t k = 0; k < arriving_.size(); ++k) {
-        if (arriving_outside_[k] != 0) continue;
-        pack_particle(arriving_, k, records);
-        owned_costs.push_back(1.0);
+        if (arriving_outside_[k] == 0) add(arriving_, k, 1.0);
       }
     }
-    StepperState mine = part_.stepper->save_state();
-    mine.removed = removed_;
-    std::vector<SlipRecord> slips;
-    for (const SlipRecord& s : mine.slips) {
-      if (part_.owns(s.first_id)) slips.push_back(s);
-    }
-    Particles all = particles_from(gathered(std::move(records)));
-    StepperState state = redistribution_state(std::move(mine), all, gathered(std::move(slips)));
-    ++state.list.builds;  // the step's build
-    distribute(std::move(all), std::move(state), gathered(std::move(owned_costs)));
+    const SpreadReductions across{
+        [](std::span<double> values) {
+          MPI_Allreduce(MPI_IN_PLACE, values.data(), static_cast<int>(values.size()), MPI_DOUBLE,
+                        MPI_SUM, MPI_COMM_WORLD);
+        },
+        [](std::span<double> values) {
+          MPI_Allreduce(MPI_IN_PLACE, values.data(), static_cast<int>(values.size()), MPI_DOUBLE,
+                        MPI_MAX, MPI_COMM_WORLD);
+        }};
+    return bisect_spread(x, y, z, cost, Box{frame_.domain.min, frame_.domain.max}, world_size(),
+                         halo_, across);
   }
 
   /// The load above the mean (by stepping_costs()) at which a rebuild moves the cuts.
@@ -1372,8 +1373,7 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
   RunPlan plan;
   std::optional<Scene> scene;
   StepperState state;
-  RunTotals first_totals;     // of step 0 (a fresh run's first history row)
-  std::vector<double> costs;  // bisection weights: a restart has no list yet, and weighs 1 each
+  RunTotals first_totals;  // of step 0 (a fresh run's first history row)
   std::optional<RestartCuts> restart_cuts;
   std::string history_text;
   const bool vtk = description.vtk_interval > 0.0;
@@ -1427,7 +1427,6 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
     history_text = history_without_end_row(restored.history, restored.stepper.step,
                                            restored.stepper.time, plan.history_every);
     state = std::move(restored.stepper);
-    costs.assign(scene->particles.size(), 1.0);
     check_output_fields(description, *scene, history_text);
   });
   note_memory("scene built");
@@ -1446,7 +1445,7 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
     Particles part = std::move(scene->particles);
     scene->particles = part.selected({});
     scene->initial_pairs = std::vector<SlipRecord>{};
-    run_part.emplace(std::move(*scene), std::move(part), std::move(state), costs, restart_cuts);
+    run_part.emplace(std::move(*scene), std::move(part), std::move(state), *restart_cuts);
   } else {
     // No process holds the whole scene: each builds its own particles, and the parts evaluate
     // the initial forces (each owned particle's are the run in one process's).

@@ -3,9 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <barrier>
 #include <numeric>
 #include <random>
+#include <span>
 #include <stdexcept>
+#include <thread>
 #include <vector>
 
 #include "solver/parallel/decomposition.hpp"
@@ -118,6 +121,83 @@ TEST(Bisection, TheSameCutsWhateverTheOrderOfTheParticles) {
     EXPECT_EQ(again.cuts()[k].axis, reference.cuts()[k].axis);
     EXPECT_EQ(again.cuts()[k].position, reference.cuts()[k].position);
     EXPECT_EQ(again.cuts()[k].rank, reference.cuts()[k].rank);
+  }
+}
+
+/// bisect_spread() of @p cloud dealt at random over @p processes processes, each played by a
+/// thread; their reductions combine the processes' values in process order. Returns every
+/// process's cuts.
+std::vector<Decomposition> spread_bisection(const Cloud& cloud, int processes, int ranks,
+                                            double min_width) {
+  const auto count = static_cast<std::size_t>(processes);
+  std::vector<Cloud> parts(count);
+  std::mt19937_64 deal(17);
+  for (std::size_t i = 0; i < cloud.x.size(); ++i) {
+    parts[deal() % count].add(cloud.x[i], cloud.y[i], cloud.z[i], cloud.cost[i]);
+  }
+  std::barrier sync(processes);
+  std::vector<std::vector<double>> posted(count);
+  const auto reduction = [&](std::size_t process, auto combine) {
+    return [&, process, combine](std::span<double> values) {
+      posted[process].assign(values.begin(), values.end());
+      sync.arrive_and_wait();
+      for (std::size_t v = 0; v < values.size(); ++v) {
+        double result = posted[0][v];
+        for (std::size_t q = 1; q < count; ++q) result = combine(result, posted[q][v]);
+        values[v] = result;
+      }
+      sync.arrive_and_wait();  // all have read before anyone posts again
+    };
+  };
+  std::vector<Decomposition> cuts(count);
+  std::vector<std::thread> threads;
+  for (std::size_t q = 0; q < count; ++q) {
+    threads.emplace_back([&, q] {
+      const SpreadReductions across{
+          reduction(q, [](double a, double b) { return a + b; }),
+          reduction(q, [](double a, double b) { return std::max(a, b); })};
+      const Cloud& part = parts[q];
+      cuts[q] = bisect_spread(part.x, part.y, part.z, part.cost, kUnit, ranks, min_width, across);
+    });
+  }
+  for (std::thread& thread : threads) thread.join();
+  return cuts;
+}
+
+TEST(Bisection, SpreadOverProcessesGivesTheCutsOfOneProcess) {
+  // A rebalancing run finds its cuts without any process holding every particle: from sums and
+  // extremes across the processes. They must be bisect()'s cuts of all the particles, to the bit,
+  // on every process: with ties on lattice planes, costs 1 and 7, and cuts the minimum width
+  // moves.
+  Cloud cloud = heap(5);
+  for (int k = 0; k < 300; ++k) cloud.add(0.5, 0.003 * k, 0.05, 1.0);
+  for (int k = 0; k < 300; ++k) cloud.add(0.02 * (k % 50), 0.25, 0.02 * (k / 50), 7.0);
+  // Three in a row halve at a tie (1 or 2 of the 3 below): bisect() takes the lower split.
+  Cloud row;
+  for (const double px : {0.1, 0.2, 0.3}) row.add(px, 0.5, 0.5, 1.0);
+  for (const int processes : {1, 3}) {
+    for (const Decomposition& spread : spread_bisection(row, processes, 2, 0.02)) {
+      EXPECT_EQ(spread.cuts().front().position,
+                row.bisect_into(2, kUnit, 0.02).cuts().front().position);
+    }
+    for (const int ranks : {2, 3, 5, 6}) {
+      for (const double min_width : {0.02, 0.3}) {
+        if (ranks > 2 && min_width > 0.1) continue;  // too many ranks for that width
+        const Decomposition reference = cloud.bisect_into(ranks, kUnit, min_width);
+        for (const Decomposition& spread : spread_bisection(cloud, processes, ranks, min_width)) {
+          ASSERT_EQ(spread.cuts().size(), reference.cuts().size());
+          for (std::size_t k = 0; k < reference.cuts().size(); ++k) {
+            const BisectionCut& a = reference.cuts()[k];
+            const BisectionCut& b = spread.cuts()[k];
+            EXPECT_TRUE(a.axis == b.axis && a.position == b.position && a.low == b.low &&
+                        a.high == b.high && a.rank == b.rank)
+                << processes << " processes, " << ranks << " ranks, width " << min_width << ": cut "
+                << k << " at " << b.position << " on axis " << b.axis << ", one process "
+                << a.position << " on axis " << a.axis;
+          }
+        }
+      }
+    }
   }
 }
 

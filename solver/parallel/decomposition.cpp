@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <numeric>
 #include <stdexcept>
@@ -19,17 +20,9 @@ struct Items {
   std::span<const std::int64_t> id;
 };
 
-/// Builds the subtree of @p ranks subdomains, ranks first_rank.., for particles @p members
-/// inside @p box into @p nodes; returns its root.
-int bisect_node(const Items& items, std::vector<std::uint32_t>& members, const Box& box,
-                int first_rank, int ranks, double min_width, std::vector<BisectionCut>& nodes) {
-  const int node = static_cast<int>(nodes.size());
-  nodes.emplace_back();
-  if (ranks == 1) {
-    nodes[static_cast<std::size_t>(node)].rank = first_rank;
-    return node;
-  }
-  // The longest side that can be cut (ties: x, then y, then z).
+/// The longest side of @p box that can be cut into two of at least @p min_width (ties: x, then
+/// y, then z). Throws std::invalid_argument when none can.
+int cut_axis(const Box& box, int ranks, double min_width) {
   std::array<int, 3> axes{0, 1, 2};
   const Eigen::Vector3d side = box.max - box.min;
   std::stable_sort(axes.begin(), axes.end(), [&](int a, int b) { return side[a] > side[b]; });
@@ -42,7 +35,26 @@ int bisect_node(const Items& items, std::vector<std::uint32_t>& members, const B
                                 " with sides of at least " + std::to_string(min_width) +
                                 " m: too many ranks for this domain");
   }
-  const int axis = *cuttable;
+  return *cuttable;
+}
+
+/// @p position moved so that both sides are at least @p min_width wide (as far as the box
+/// allows: it is 2 min_width at least along @p axis).
+double clamped_cut(double position, const Box& box, int axis, double min_width) {
+  return std::clamp(position, box.min[axis] + min_width, box.max[axis] - min_width);
+}
+
+/// Builds the subtree of @p ranks subdomains, ranks first_rank.., for particles @p members
+/// inside @p box into @p nodes; returns its root.
+int bisect_node(const Items& items, std::vector<std::uint32_t>& members, const Box& box,
+                int first_rank, int ranks, double min_width, std::vector<BisectionCut>& nodes) {
+  const int node = static_cast<int>(nodes.size());
+  nodes.emplace_back();
+  if (ranks == 1) {
+    nodes[static_cast<std::size_t>(node)].rank = first_rank;
+    return node;
+  }
+  const int axis = cut_axis(box, ranks, min_width);
   const std::span<const double> coordinate = items.coordinate[static_cast<std::size_t>(axis)];
   std::sort(members.begin(), members.end(), [&](std::uint32_t a, std::uint32_t b) {
     return coordinate[a] != coordinate[b] ? coordinate[a] < coordinate[b]
@@ -68,8 +80,7 @@ int bisect_node(const Items& items, std::vector<std::uint32_t>& members, const B
   }
   double position = best < n ? 0.5 * (coordinate[members[best - 1]] + coordinate[members[best]])
                              : 0.5 * (box.min[axis] + box.max[axis]);
-  // Both sides at least min_width wide (as far as the box allows: it is 2 min_width at least).
-  position = std::clamp(position, box.min[axis] + min_width, box.max[axis] - min_width);
+  position = clamped_cut(position, box, axis, min_width);
   const auto split = std::partition_point(
       members.begin(), members.end(), [&](std::uint32_t i) { return coordinate[i] < position; });
   std::vector<std::uint32_t> high(split, members.end());
@@ -88,7 +99,136 @@ int bisect_node(const Items& items, std::vector<std::uint32_t>& members, const B
   return node;
 }
 
+/// @p value as an unsigned key in the order of the doubles (a negative one's bits inverted, the
+/// sign bit of the others set), so that a bisection over keys searches the doubles.
+std::uint64_t ordered_key(double value) {
+  std::uint64_t bits = 0;
+  std::memcpy(&bits, &value, sizeof bits);
+  constexpr std::uint64_t kSign = std::uint64_t{1} << 63;
+  return (bits & kSign) != 0 ? ~bits : bits | kSign;
+}
+
+/// The double of ordered_key() @p key.
+double from_ordered_key(std::uint64_t key) {
+  constexpr std::uint64_t kSign = std::uint64_t{1} << 63;
+  const std::uint64_t bits = (key & kSign) != 0 ? key & ~kSign : ~key;
+  double value = 0.0;
+  std::memcpy(&value, &bits, sizeof value);
+  return value;
+}
+
 }  // namespace
+
+/// bisect_spread()'s tree, built alike on every process from the reductions across them.
+struct SpreadBisection {
+  std::array<std::span<const double>, 3> coordinate;
+  std::span<const double> cost;
+  double min_width;
+  const SpreadReductions& across;
+  std::vector<BisectionCut>& nodes;
+
+  /// As bisect_node(), this process's @p members of the node's particles at hand.
+  int node(std::vector<std::uint32_t>& members, const Box& box, int first_rank, int ranks) {
+    const int node = static_cast<int>(nodes.size());
+    nodes.emplace_back();
+    if (ranks == 1) {
+      nodes[static_cast<std::size_t>(node)].rank = first_rank;
+      return node;
+    }
+    const int axis = cut_axis(box, ranks, min_width);
+    const std::span<const double> c = coordinate[static_cast<std::size_t>(axis)];
+    const int low_ranks = ranks / 2;
+    constexpr double kNone = -std::numeric_limits<double>::infinity();
+    double totals[2] = {0.0, 0.0};        // particles, cost
+    double extremes[2] = {kNone, kNone};  // the largest coordinate, and minus the smallest
+    for (const std::uint32_t i : members) {
+      totals[0] += 1.0;
+      totals[1] += cost[i];
+      extremes[0] = std::max(extremes[0], c[i]);
+      extremes[1] = std::max(extremes[1], -c[i]);
+    }
+    across.sum(totals);
+    across.max(extremes);
+    const double target = totals[1] * low_ranks / ranks;
+    const double lowest = -extremes[1];
+    const double highest = extremes[0];
+    double position = 0.5 * (box.min[axis] + box.max[axis]);  // no two distinct coordinates
+    if (totals[0] >= 2.0 && lowest < highest) {
+      // The cost at coordinates up to t only grows with t; a: the smallest coordinate at which
+      // it reaches the target (it does at the highest, where it is the total).
+      std::uint64_t low_key = ordered_key(lowest);
+      std::uint64_t high_key = ordered_key(highest);
+      while (low_key < high_key) {
+        const std::uint64_t middle = low_key + (high_key - low_key) / 2;
+        const double t = from_ordered_key(middle);
+        double up_to = 0.0;
+        for (const std::uint32_t i : members) up_to += c[i] <= t ? cost[i] : 0.0;
+        across.sum(std::span(&up_to, 1));
+        if (up_to >= target) {
+          high_key = middle;
+        } else {
+          low_key = middle + 1;
+        }
+      }
+      const double a = from_ordered_key(low_key);
+      // bisect()'s best split lies next to a: between a and the coordinate below it (the cost
+      // below a, short of the target) or between a and the one above (the cost up to a). A split
+      // further off misses the target by more, as every cost is positive; a tie goes low.
+      double below[2] = {0.0, 0.0};       // the cost below a, and up to a
+      double around[2] = {kNone, kNone};  // the coordinate below a, and minus the one above
+      for (const std::uint32_t i : members) {
+        if (c[i] < a) {
+          below[0] += cost[i];
+          around[0] = std::max(around[0], c[i]);
+        } else if (c[i] > a) {
+          around[1] = std::max(around[1], -c[i]);
+        }
+        below[1] += c[i] <= a ? cost[i] : 0.0;
+      }
+      across.sum(below);
+      across.max(around);
+      const bool has_lower = around[0] != kNone;
+      const bool has_higher = around[1] != kNone;
+      if (has_lower) position = 0.5 * (around[0] + a);
+      if (has_higher && (!has_lower || std::abs(below[1] - target) < std::abs(below[0] - target))) {
+        position = 0.5 * (a - around[1]);
+      }
+    }
+    position = clamped_cut(position, box, axis, min_width);
+    const auto split = std::partition(members.begin(), members.end(),
+                                      [&](std::uint32_t i) { return c[i] < position; });
+    std::vector<std::uint32_t> high(split, members.end());
+    members.erase(split, members.end());
+    Box low_box = box, high_box = box;
+    low_box.max[axis] = position;
+    high_box.min[axis] = position;
+    const int low = this->node(members, low_box, first_rank, low_ranks);
+    const int high_node = this->node(high, high_box, first_rank + low_ranks, ranks - low_ranks);
+    BisectionCut& cut = nodes[static_cast<std::size_t>(node)];
+    cut.axis = axis;
+    cut.position = position;
+    cut.low = low;
+    cut.high = high_node;
+    return node;
+  }
+};
+
+Decomposition bisect_spread(std::span<const double> x, std::span<const double> y,
+                            std::span<const double> z, std::span<const double> cost,
+                            const Box& domain, int ranks, double min_width,
+                            const SpreadReductions& across) {
+  if (ranks < 1) throw std::invalid_argument("bisect: ranks must be at least 1");
+  const std::size_t n = x.size();
+  if (y.size() != n || z.size() != n || cost.size() != n) {
+    throw std::invalid_argument("bisect: coordinates and costs differ in length");
+  }
+  Decomposition d;
+  d.ranks_ = ranks;
+  std::vector<std::uint32_t> members(n);
+  std::iota(members.begin(), members.end(), std::uint32_t{0});
+  SpreadBisection{{x, y, z}, cost, min_width, across, d.nodes_}.node(members, domain, 0, ranks);
+  return d;
+}
 
 int Decomposition::owner(double x, double y, double z) const {
   const double point[3] = {x, y, z};

@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -21,6 +22,13 @@ struct BisectionCut {
   int low = -1;   ///< child node of the low side
   int high = -1;  ///< child node of the high side
   int rank = -1;  ///< a leaf's rank (then axis, position, low and high are unused)
+};
+
+/// Collective reductions over the processes that share a spread bisection: each process calls
+/// them alike, with as many values, and every process receives the same results, elementwise.
+struct SpreadReductions {
+  std::function<void(std::span<double> values)> sum;  ///< replaced by their sums
+  std::function<void(std::span<double> values)> max;  ///< replaced by their maximums
 };
 
 /// The subdomains of a bisection: a tree of cuts whose leaves are the ranks, in depth-first
@@ -41,6 +49,9 @@ class Decomposition {
   friend Decomposition bisect(std::span<const double>, std::span<const double>,
                               std::span<const double>, std::span<const double>,
                               std::span<const std::int64_t>, const Box&, int, double);
+  friend Decomposition bisect_spread(std::span<const double>, std::span<const double>,
+                                     std::span<const double>, std::span<const double>, const Box&,
+                                     int, double, const SpreadReductions&);
   std::vector<BisectionCut> nodes_;
   int ranks_ = 0;
 };
@@ -66,5 +77,15 @@ std::vector<std::uint32_t> subdomain_members(const Decomposition& decomposition,
                                              const Domain& domain, double halo,
                                              std::span<const double> x, std::span<const double> y,
                                              std::span<const double> z);
+
+/// bisect() of particles spread over processes, none holding more than its own: each process
+/// passes its particles (@p x, @p y, @p z, @p cost), and the cuts come from sums and extremes
+/// across them (@p across, a few dozen reductions per cut), the same cuts as bisect() of all the
+/// particles in one place. The costs must be whole numbers (below 2^53), so that their sums are
+/// exact in any order. Throws std::invalid_argument as bisect() does, on every process alike.
+Decomposition bisect_spread(std::span<const double> x, std::span<const double> y,
+                            std::span<const double> z, std::span<const double> cost,
+                            const Box& domain, int ranks, double min_width,
+                            const SpreadReductions& across);
 
 }  // namespace bondem
