@@ -1098,11 +1098,11 @@ class DistributedRun {
       // stepper's arrays, taken out by ids (72-B records of every kept pair would double what a
       // migration holds: 1.5 M pairs with a spring a process at 10^6).
       std::vector<std::vector<SlipRecord>> leaving_slips(processes);
-      std::vector<std::int64_t> kept_ids;
+      std::vector<std::uint8_t> kept_row(p.size(), 0);
       for (std::uint32_t k = 0; k < p.size(); ++k) {
         if (new_owner[k] < 0) continue;  // a ghost's pairs: its owner sends them
         if (new_owner[k] == rank) {
-          kept_ids.push_back(p.id[k]);
+          kept_row[k] = 1;
           continue;
         }
         part_.stepper->for_each_slip(std::span(&k, 1), [&](const SlipRecord& slip) {
@@ -1111,12 +1111,9 @@ class DistributedRun {
       }
       arrived_slips = exchanged(leaving_slips);
       leaving_slips = {};
-      std::sort(kept_ids.begin(), kept_ids.end());
       // The old part's list and pairs are read: freed before anything else is built.
       state = part_.stepper->save_state(SavedArrays::kOmitted);
-      kept_pairs = part_.stepper->take_pairs([&](std::int64_t id) {
-        return std::binary_search(kept_ids.begin(), kept_ids.end(), id);
-      });
+      kept_pairs = part_.stepper->take_pairs(kept_row);
       part_.stepper.reset();
       std::vector<std::int64_t> counts;
       const std::vector<char> arrived = bondem::exchanged(leaving, counts);
@@ -1154,11 +1151,6 @@ class DistributedRun {
     std::vector<SlipRecord> ghost_slips_arrived;
     {  // Each process's particles in another's halo, whole, with the pairs they lead.
       std::vector<std::int64_t> counts;
-      std::vector<std::pair<std::int64_t, std::uint32_t>> owned_index(owned);
-      for (std::size_t k = 0; k < owned; ++k) {
-        owned_index[k] = {next.id[k], static_cast<std::uint32_t>(k)};
-      }
-      std::sort(owned_index.begin(), owned_index.end());
       std::vector<std::vector<std::uint32_t>> ghost_sends(processes);
       std::vector<std::vector<char>> ghost_records(processes);
       std::vector<std::vector<SlipRecord>> ghost_slips(processes);
@@ -1167,15 +1159,15 @@ class DistributedRun {
         const auto ur = static_cast<std::size_t>(r);
         ghost_sends[ur] =
             subdomain_members(decomposition_, r, frame_.domain, halo_, next.x, next.y, next.z);
-        std::vector<std::uint8_t> sent(owned, 0);
+        // The ids sent, sorted: a halo's few, where the pairs' leaders are looked up.
+        std::vector<std::int64_t> sent;
         for (const std::uint32_t k : ghost_sends[ur]) {
           pack_particle(next, k, ghost_records[ur]);
-          sent[k] = 1;
+          sent.push_back(next.id[k]);
         }
+        std::sort(sent.begin(), sent.end());
         const auto leader_sent = [&](std::int64_t first_id) {
-          return sent[std::lower_bound(owned_index.begin(), owned_index.end(),
-                                       std::pair(first_id, 0U))
-                          ->second] != 0;
+          return std::binary_search(sent.begin(), sent.end(), first_id);
         };
         for (const SlipRecord& slip : owned_slips) {
           if (leader_sent(slip.first_id)) ghost_slips[ur].push_back(slip);

@@ -207,10 +207,8 @@ SlipRecord Stepper::CarriedPairs::record(std::size_t k) const {
   return slip_at(keys[k].first_id, keys[k].second_id, history, bonded, keys[k].slot);
 }
 
-Stepper::CarriedPairs Stepper::take_pairs(const std::function<bool(std::int64_t)>& keep) {
-  CarriedPairs carried = release_pairs();
-  std::erase_if(carried.keys, [&](const CarriedPairs::Key& key) { return !keep(key.first_id); });
-  return carried;
+Stepper::CarriedPairs Stepper::take_pairs(const std::vector<std::uint8_t>& keep_row) {
+  return release_pairs(&keep_row);
 }
 
 void Stepper::release_pair_forces() {
@@ -219,7 +217,7 @@ void Stepper::release_pair_forces() {
   pair_forces_.bonded = std::move(bonded);
 }
 
-Stepper::CarriedPairs Stepper::release_pairs() {
+Stepper::CarriedPairs Stepper::release_pairs(const std::vector<std::uint8_t>* rows) {
   CarriedPairs carried;
   release_pair_forces();
   carried.bonded = std::move(pair_forces_.bonded);
@@ -228,13 +226,17 @@ Stepper::CarriedPairs Stepper::release_pairs() {
   // Counted first: a vector grown by doubling would hold up to three times the keys while it
   // moves them.
   std::size_t count = 0;
-  list_.for_each_pair([&](std::size_t /*i*/, std::size_t /*j*/, std::uint32_t k) {
-    if (carries_state(carried.history, carried.bonded, k)) ++count;
+  const auto taken = [&](std::size_t i, std::uint32_t k) {
+    return (rows == nullptr || (*rows)[i] != 0) &&
+           carries_state(carried.history, carried.bonded, k);
+  };
+  list_.for_each_pair([&](std::size_t i, std::size_t /*j*/, std::uint32_t k) {
+    if (taken(i, k)) ++count;
   });
   carried.keys.reserve(count);
   const Particles& p = scene_.particles;
   list_.for_each_pair([&](std::size_t i, std::size_t j, std::uint32_t k) {
-    if (carries_state(carried.history, carried.bonded, k)) {
+    if (taken(i, k)) {
       carried.keys.push_back({p.id[i], p.id[j], k});
     }
   });

@@ -120,11 +120,12 @@ class Stepper {
   /// and from restored.slips, which hold the pairs @p carried lacks.
   Stepper(Scene& scene, StepperState restored, CarriedPairs carried, PairFlag pair_flag = {});
 
-  /// Take the state of the pairs whose first particle's id @p keep accepts (the first of the
-  /// pair's row, as for_each_slip() visits it) out of the stepper, which steps no more: what a
-  /// decomposed run's migration carries to the part that follows, in the stepper's arrays (about 49
-  /// B a pair with a spring) instead of 72-B SlipRecords.
-  CarriedPairs take_pairs(const std::function<bool(std::int64_t)>& keep);
+  /// Take the state of the pairs whose first particle (the first of the pair's row, as
+  /// for_each_slip() visits it) @p keep_row marks, by its index in the scene's particles, out of
+  /// the stepper, which steps no more: what a decomposed run's migration carries to the part that
+  /// follows, in the stepper's arrays (about 49 B a pair with a spring) instead of 72-B
+  /// SlipRecords.
+  CarriedPairs take_pairs(const std::vector<std::uint8_t>& keep_row);
 
   /// One velocity-Verlet step of scene.time_step. Throws BlowUpError, after completing the step,
   /// when a value is not finite or an overlap exceeds scene.max_overlap_fraction of a radius.
@@ -269,8 +270,8 @@ class Stepper {
   /// Take the pairs' state out of the stepper before a build: its history and bond flags move
   /// into the result, and the per-pair forces, torque terms and heat flows, which the evaluation
   /// after every build rewrites, are freed (56 B a pair with friction) for the keys to take
-  /// their place.
-  CarriedPairs release_pairs();
+  /// their place. With @p rows, only the pairs in the rows it marks (by the row's particle index).
+  CarriedPairs release_pairs(const std::vector<std::uint8_t>* rows = nullptr);
   /// Clean pair slots for the current list, refilled from @p carried by particle ids (then from
   /// @p more, then from @p streamed, for the pairs the former lack); the force slots are
   /// allocated once all are freed, so that a rebuild's peak stays below a step's.
