@@ -285,6 +285,16 @@ RunPlan plan_run(const Case& description, const RunOptions& options) {
   return plan;
 }
 
+void check_checkpoint_fingerprint(std::uint64_t fingerprint, const Case& description,
+                                  const RunOptions& options, const RunPlan& plan) {
+  if (fingerprint != plan.fingerprint) {
+    throw CaseError(options.restart_path +
+                    ": checkpoint was written by a different case (its "
+                    "materials, laws, time step, domain, walls or particle count differ from " +
+                    description.source + ")");
+  }
+}
+
 Checkpoint read_fitting_checkpoint(const Case& description, const RunOptions& options,
                                    const RunPlan& plan, const Scene& scene,
                                    std::size_t case_particles,
@@ -297,12 +307,7 @@ Checkpoint read_fitting_checkpoint(const Case& description, const RunOptions& op
   } catch (const CheckpointError& e) {
     throw CaseError(e.what());
   }
-  if (restored.case_fingerprint != plan.fingerprint) {
-    throw CaseError(options.restart_path +
-                    ": checkpoint was written by a different case (its "
-                    "materials, laws, time step, domain, walls or particle count differ from " +
-                    description.source + ")");
-  }
+  check_checkpoint_fingerprint(restored.case_fingerprint, description, options, plan);
   if (const std::string misfit = checkpoint_misfit(
           restored, scene, description.materials.size(),
           keep != nullptr ? keep->size() : restored.particles.size(), case_particles);

@@ -1388,7 +1388,11 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
     {
       Particles where;
       try {
-        where = read_checkpoint_positions(options.restart_path);
+        Checkpoint positions =
+            read_checkpoint(options.restart_path, CheckpointScope{.positions_only = true});
+        // Before the bisection: a checkpoint of another case is refused as such.
+        check_checkpoint_fingerprint(positions.case_fingerprint, description, options, plan);
+        where = std::move(positions.particles);
       } catch (const CheckpointError& e) {
         throw CaseError(e.what());
       }

@@ -38,6 +38,11 @@ struct RunPlan {
 /// count, the output intervals and the output paths. Throws CaseError.
 RunPlan plan_run(const Case& description, const RunOptions& options);
 
+/// Throws CaseError when a checkpoint's @p fingerprint is not the plan's: it was written by
+/// another case than @p description.
+void check_checkpoint_fingerprint(std::uint64_t fingerprint, const Case& description,
+                                  const RunOptions& options, const RunPlan& plan);
+
 /// The checkpoint options.restart_path, checked to come from @p description, to fit @p scene (its
 /// layout: the particles need not be there) and the case's @p case_particles particles, and to
 /// end before the plan's last step; with @p keep, only the rows it marks (read_checkpoint()). Its

@@ -103,6 +103,7 @@ function(run_on processes)
     message(FATAL_ERROR "'${command}' exited with ${status}: ${err}")
   endif()
   set(run_output "${out}" PARENT_SCOPE)
+  set(run_error "${err}" PARENT_SCOPE)
 endfunction()
 
 # The last run's printed summary into `directory`/summary.txt, without what depends on the
@@ -195,6 +196,15 @@ if(NOT PROCESSES EQUAL 0)
   expect_reference_bytes(pour ${directory}
                          "pour on ${PROCESSES} processes continued on ${next}")
   expect_reference_frames(pour ${directory} "pour on ${PROCESSES} processes continued on ${next}")
+
+  # A checkpoint of another case is refused as such, before any process bisects its particles.
+  set(expected_status 2)
+  run_on(${PROCESSES} ${thermal_case} --output ${WORK}/wrong_case
+         --restart ${directory}/checkpoint.bin)
+  unset(expected_status)
+  if(NOT run_error MATCHES "checkpoint was written by a different case")
+    message(FATAL_ERROR "a checkpoint of another case on ${PROCESSES} processes: ${run_error}")
+  endif()
 
   set(directory ${WORK}/stream_restarted)
   file(REMOVE_RECURSE ${directory})
