@@ -11,6 +11,7 @@
 #include <exception>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <limits>
 #include <memory>
@@ -230,19 +231,38 @@ struct GatheredRuns {
       end[r] = next[r] + static_cast<std::size_t>(bytes[r]) / size;
     }
   }
-  /// The process whose next value has the least @p key (key(index)), or next.size() when every
-  /// run is used up: a merge of runs each in order.
-  template <class Key>
-  std::size_t lowest(Key&& key) const {
-    std::size_t lowest = next.size();
-    for (std::size_t r = 0; r < next.size(); ++r) {
-      if (next[r] < end[r] && (lowest == next.size() || key(next[r]) < key(next[lowest]))) {
-        lowest = r;
-      }
-    }
-    return lowest;
-  }
   std::vector<std::size_t> next, end;
+};
+
+/// A merge of GatheredRuns, each in order of @p key (key(index) of an entry): pop() gives the
+/// process whose next entry has the least key (the lower process on a tie), in O(log R); the
+/// caller takes that process's entries, advancing runs.next, then puts it back with push().
+template <class Key>
+class RunMerge {
+ public:
+  RunMerge(const GatheredRuns& runs, Key key) : runs_(runs), key_(std::move(key)) {
+    for (std::size_t r = 0; r < runs.next.size(); ++r) push(r);
+  }
+  /// Whether some run has entries left.
+  bool any() const { return !heap_.empty(); }
+  /// The process with the least next key, out of the merge until push().
+  std::size_t pop() {
+    std::pop_heap(heap_.begin(), heap_.end(), std::greater<>());
+    const std::size_t r = heap_.back().second;
+    heap_.pop_back();
+    return r;
+  }
+  /// Process @p r back into the merge, if its run has entries left.
+  void push(std::size_t r) {
+    if (runs_.next[r] >= runs_.end[r]) return;
+    heap_.emplace_back(key_(runs_.next[r]), r);
+    std::push_heap(heap_.begin(), heap_.end(), std::greater<>());
+  }
+
+ private:
+  const GatheredRuns& runs_;
+  Key key_;
+  std::vector<std::pair<std::invoke_result_t<Key&, std::size_t>, std::size_t>> heap_;
 };
 
 /// Every process's owned particles in id order, cut into chunks of kChunk ids:
@@ -285,10 +305,12 @@ class IdStream {
       const std::vector<std::int64_t> all = gathered(std::move(ids), true, &bytes);
       if (!root) continue;
       GatheredRuns runs(bytes, sizeof(std::int64_t));
-      for (std::size_t k = 0; k < all.size(); ++k) {
-        const std::size_t lowest = runs.lowest([&](std::size_t at) { return all[at]; });
+      RunMerge merge(runs, [&](std::size_t at) { return all[at]; });
+      while (merge.any()) {
+        const std::size_t lowest = merge.pop();
         ++runs.next[lowest];
         source_.push_back(static_cast<std::int32_t>(lowest));
+        merge.push(lowest);
       }
       chunk_begins_.push_back(source_.size() - all.size());
     }
@@ -342,13 +364,14 @@ class IdStream {
       if (world_rank() != 0) continue;
       // Each process's pairs are in order, and a first particle's pairs all come from its owner.
       GatheredRuns runs(bytes, sizeof(SlipRecord));
-      const auto first_id_at = [&](std::size_t at) { return all[at].first_id; };
-      for (std::size_t r = runs.lowest(first_id_at); r < bytes.size();
-           r = runs.lowest(first_id_at)) {
+      RunMerge merge(runs, [&](std::size_t at) { return all[at].first_id; });
+      while (merge.any()) {
+        const std::size_t r = merge.pop();
         const std::int64_t first_id = all[runs.next[r]].first_id;
         while (runs.next[r] < runs.end[r] && all[runs.next[r]].first_id == first_id) {
           visit(static_cast<const SlipRecord&>(all[runs.next[r]++]));
         }
+        merge.push(r);
       }
     }
   }
