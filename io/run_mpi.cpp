@@ -830,22 +830,7 @@ class DistributedRun {
     part_.stepper.reset();
     const bool root = world_rank() == 0;
     Particles& all = end.particles;
-    all.temperatures_tracked = thermal;
-    for (const ParticleField& field : kParticleFields) {
-      const bool listed = has(field, kLastGood) ||
-                          (thermal && (std::string_view(field.name) == "temperature" ||
-                                       std::string_view(field.name) == "peak_temperature"));
-      if (!listed) continue;
-      std::visit(
-          [&](auto member) {
-            auto& values = p.*member;
-            std::vector<typename std::decay_t<decltype(values)>::value_type> every =
-                order.by_id(values);
-            (all.*member).assign(every.begin(), every.end());
-            std::decay_t<decltype(values)>().swap(values);  // freed as soon as sent
-          },
-          field.member);
-    }
+    all = state_by_id(p, order, true);
     if (thermal) end.bonds = order.by_id(bonds);
     if (analysed) end.contacts = order.by_id(contacts);
     std::vector<int>().swap(bonds);
@@ -864,6 +849,17 @@ class DistributedRun {
     return end;
   }
 
+  /// On rank 0, the fields of a final state (and in thermal runs each particle's bond count,
+  /// @p bonds) of every particle of the run, by id, streamed from the parts: what a state
+  /// snapshot writes, without assembling the whole run. Every process calls it.
+  Particles snapshot(std::vector<int>& bonds) {
+    const Particles& p = part_.scene->particles;
+    const IdStream order(p, part_);
+    Particles all = state_by_id(p, order, false);
+    if (thermal_) bonds = order.by_id(bond_counts(p, *part_.stepper));
+    return all;
+  }
+
   const RankPart& part() const { return part_; }
   /// The whole run's boundary loads at this step, on every process.
   std::vector<BoundaryLoad> loads() const { return boundary_loads_of(load_sums_); }
@@ -872,6 +868,33 @@ class DistributedRun {
   std::int64_t migrations() const { return migrations_; }
 
  private:
+  /// On rank 0, the fields of a final state of every particle of the run by id, from each
+  /// process's @p p over @p order (empty elsewhere); with @p free_sent (the end of the run) each
+  /// of @p p's fields is freed as soon as it is sent.
+  template <class Part>
+  Particles state_by_id(Part& p, const IdStream& order, bool free_sent) const {
+    Particles all;
+    all.temperatures_tracked = thermal_;
+    for (const ParticleField& field : kParticleFields) {
+      const bool listed = has(field, kLastGood) ||
+                          (thermal_ && (std::string_view(field.name) == "temperature" ||
+                                        std::string_view(field.name) == "peak_temperature"));
+      if (!listed) continue;
+      std::visit(
+          [&](auto member) {
+            auto& values = p.*member;
+            std::vector<typename std::decay_t<decltype(values)>::value_type> every =
+                order.by_id(values);
+            (all.*member).assign(every.begin(), every.end());
+            if constexpr (!std::is_const_v<Part>) {
+              if (free_sent) std::decay_t<decltype(values)>().swap(values);
+            }
+          },
+          field.member);
+    }
+    return all;
+  }
+
   /// @p records (packed particles of this run) as particles, in their order.
   Particles particles_from(const std::vector<char>& records) const {
     const std::size_t n = records.size() / record_bytes_;
@@ -1529,9 +1552,7 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
       }
     });
   };
-  // State snapshots and layers are written by rank 0 from the whole run assembled at their steps.
-  std::optional<StateFiles> states;
-  if (root && plan.state_every > 0) states.emplace(plan.directory, plan.state_every);
+  // Layers are measured by rank 0 in the whole run assembled at their steps.
   std::optional<LayerFiles> layers;
   std::size_t layers_measured = 0;  // on every process: when to assemble for the next layer
   if (description.layers) {
@@ -1552,10 +1573,18 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
     });
   };
 
-  if (!plan.restarting && plan.state_every > 0) {
-    at_whole_run(
-        [&](const Simulation& s) { StateFiles(plan.directory, plan.state_every).start(s); });
-  }
+  // A state snapshot is the final state's fields by id, streamed from the parts to rank 0.
+  const auto write_state = [&](std::int64_t step) {
+    std::vector<int> bonds;
+    const Particles snapshot = run.snapshot(bonds);
+    together([&] {
+      if (!root) return;
+      write_final_state(snapshot, names,
+                        (plan.directory / state_file_name(step / plan.state_every)).string(),
+                        bonds);
+    });
+  };
+  if (!plan.restarting && plan.state_every > 0) write_state(0);
 
   const auto started = std::chrono::steady_clock::now();
   try {
@@ -1578,13 +1607,10 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
           description.layers ? layers_through(*description.layers, description.time_step, step) : 0;
       const bool layer_due = layers_due > layers_measured;
       const bool checkpoint_due = step % plan.checkpoint_every == 0 && !at_end;
-      if (state_due || layer_due) {
-        // In the order of the observers of a run in one process.
-        at_whole_run([&](const Simulation& s) {
-          if (state_due) states->after_step(s);
-          if (layer_due) layers->after_step(s);
-        });
-        if (layer_due) layers_measured = layers_due;
+      if (state_due) write_state(step);
+      if (layer_due) {
+        at_whole_run([&](const Simulation& s) { layers->after_step(s); });
+        layers_measured = layers_due;
       }
       if (checkpoint_due)
         run.write_checkpoint(plan.checkpoint_path, plan.fingerprint, history.text());
