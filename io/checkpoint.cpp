@@ -178,32 +178,32 @@ class Reader {
     take(text.data(), size);
     return text;
   }
-  /// As get(values, rows * width), keeping only the rows @p keep marks (@p rows of @p width
-  /// values each), read a block of rows at a time.
+  /// As get(values, rows * width), keeping only the rows @p kept (ascending, below @p rows) of
+  /// @p width values each, read a block of rows at a time.
   template <class T, class Allocator>
   void get_rows(std::vector<T, Allocator>& values, std::uint64_t rows, std::uint64_t width,
-                const std::vector<std::uint8_t>& keep) {
+                const std::vector<std::uint64_t>& kept) {
     const auto size = get<std::uint64_t>();
     if (size != rows * width) {
       fail("array of " + std::to_string(size) + " entries, expected " +
            std::to_string(rows * width));
     }
     check_room(size, sizeof(T));
-    const auto kept = static_cast<std::size_t>(
-        std::count_if(keep.begin(), keep.end(), [](std::uint8_t k) { return k != 0; }));
-    values.resize(kept * width);
+    values.resize(kept.size() * width);
     constexpr std::uint64_t kBlockRows = 4096;
     std::vector<T> block;
-    std::size_t at = 0;
+    std::size_t at = 0;  // the next kept row
     for (std::uint64_t first = 0; first < rows; first += kBlockRows) {
       const std::uint64_t count = std::min(kBlockRows, rows - first);
+      if (at == kept.size() || kept[at] >= first + count) {  // none in this block
+        skip(count * width * sizeof(T));
+        continue;
+      }
       block.resize(count * width);
       take(block.data(), block.size() * sizeof(T));
-      for (std::uint64_t k = 0; k < count; ++k) {
-        if (keep[first + k] == 0) continue;
-        std::copy_n(block.begin() + static_cast<std::ptrdiff_t>(k * width), width,
+      for (; at < kept.size() && kept[at] < first + count; ++at) {
+        std::copy_n(block.begin() + static_cast<std::ptrdiff_t>((kept[at] - first) * width), width,
                     values.begin() + static_cast<std::ptrdiff_t>(at * width));
-        ++at;
       }
     }
   }
@@ -739,7 +739,8 @@ namespace {
 /// is a regular file, its magic, its version, its size against the header and its checksum. The
 /// payload is hashed in pieces as it is read, then read again by the caller: the file (hundreds
 /// of megabytes at 10^6 particles) is never held in memory beside the state read from it.
-std::ifstream open_checked_payload(const std::string& path, std::uint64_t& size) {
+std::ifstream open_checked_payload(const std::string& path, std::uint64_t& size,
+                                   bool verify = true) {
   // A directory opens as a stream on Linux and reports an absurd size: refuse it by its type.
   std::error_code error;
   const std::filesystem::file_status status = std::filesystem::status(path, error);
@@ -774,6 +775,10 @@ std::ifstream open_checked_payload(const std::string& path, std::uint64_t& size)
     throw CheckpointError(path + ": truncated checkpoint (" + std::to_string(length) +
                           " bytes, expected " +
                           std::to_string(kHeaderBytes + size + sizeof(std::uint64_t)) + ")");
+  }
+  if (!verify) {
+    in.seekg(static_cast<std::streamoff>(kHeaderBytes));
+    return in;
   }
   std::vector<char> piece(std::size_t{1} << 20U);
   std::uint64_t hash = fnv1a(nullptr, 0);
@@ -827,7 +832,7 @@ SlipSource streamed_slips(std::shared_ptr<std::ifstream> in, std::streamoff at, 
 
 Checkpoint read_checkpoint(const std::string& path, const CheckpointScope& scope) {
   std::uint64_t size = 0;
-  auto in = std::make_shared<std::ifstream>(open_checked_payload(path, size));
+  auto in = std::make_shared<std::ifstream>(open_checked_payload(path, size, !scope.head_only));
   Reader r(*in, size, path);
   Checkpoint c;
   StepperState& s = c.stepper;
@@ -842,9 +847,16 @@ Checkpoint read_checkpoint(const std::string& path, const CheckpointScope& scope
   s.list.builds = r.get<std::int64_t>();
   const auto n = r.get<std::uint64_t>();
   r.check_room(n, sizeof(double));
-  if (scope.keep != nullptr && scope.keep->size() != n) {
-    r.fail("holds " + std::to_string(n) + " particles, not the " +
-           std::to_string(scope.keep->size()) + " read before");
+  c.file_particles = n;
+  if (scope.head_only) return c;
+  if (scope.rows != nullptr) {
+    const std::vector<std::uint64_t>& rows = *scope.rows;
+    for (std::size_t k = 0; k < rows.size(); ++k) {
+      if (rows[k] >= n || (k > 0 && rows[k] <= rows[k - 1])) {
+        r.fail("holds " + std::to_string(n) + " particles: row " + std::to_string(rows[k]) +
+               " asked for is not in it, or not in order");
+      }
+    }
   }
   Particles& p = c.particles;
   // Per-wall fields hold wall_values per wall: the wall count is read before their section.
@@ -861,8 +873,8 @@ Checkpoint read_checkpoint(const std::string& path, const CheckpointScope& scope
               if (scope.positions_only && name != "id" && name != "x" && name != "y" &&
                   name != "z" && name != "radius") {
                 r.skip_array(sizeof(Value));
-              } else if (scope.keep != nullptr) {
-                r.get_rows(values, n, width, *scope.keep);
+              } else if (scope.rows != nullptr) {
+                r.get_rows(values, n, width, *scope.rows);
               } else {
                 r.get(values, n * width);
               }
@@ -874,8 +886,8 @@ Checkpoint read_checkpoint(const std::string& path, const CheckpointScope& scope
   get_section(CheckpointSection::kParticle);
   if (scope.positions_only) return c;  // the checksum was verified over the whole payload
   for (auto* field : {&s.list.x0, &s.list.y0, &s.list.z0}) {
-    if (scope.keep != nullptr) {
-      r.get_rows(*field, n, 1, *scope.keep);
+    if (scope.rows != nullptr) {
+      r.get_rows(*field, n, 1, *scope.rows);
     } else {
       r.get(*field, n);
     }
@@ -894,10 +906,10 @@ Checkpoint read_checkpoint(const std::string& path, const CheckpointScope& scope
     s.slip_source = streamed_slips(in, in->tellg(), slip_count, path);
     r.skip(slip_count * kSlipBytes);
   } else {
-    if (scope.keep == nullptr) s.slips.reserve(slip_count);
+    if (scope.rows == nullptr) s.slips.reserve(slip_count);
     for (std::uint64_t k = 0; k < slip_count; ++k) {
       const SlipRecord slip = read_slip(r);
-      if (scope.keep == nullptr || kept(slip.first_id) || kept(slip.second_id)) {
+      if (scope.rows == nullptr || kept(slip.first_id) || kept(slip.second_id)) {
         s.slips.push_back(slip);
       }
     }
@@ -947,8 +959,8 @@ Checkpoint read_checkpoint(const std::string& path) {
   return read_checkpoint(path, CheckpointScope{});
 }
 
-Checkpoint read_checkpoint(const std::string& path, const std::vector<std::uint8_t>& keep) {
-  return read_checkpoint(path, CheckpointScope{&keep});
+Checkpoint read_checkpoint(const std::string& path, const std::vector<std::uint64_t>& rows) {
+  return read_checkpoint(path, CheckpointScope{&rows});
 }
 
 Particles read_checkpoint_positions(const std::string& path) {

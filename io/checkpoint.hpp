@@ -114,6 +114,8 @@ struct Checkpoint {
   /// Names of the materials, by the index the particles hold: how a case that starts from the
   /// checkpoint (initial_state) finds them among its own.
   std::vector<std::string> material_names;
+  /// Particles the file holds: particles.size() unless only some rows were read.
+  std::uint64_t file_particles = 0;
 };
 
 /// The canonical text of @p description that its fingerprint hashes, one `key=value` a line:
@@ -203,22 +205,25 @@ Checkpoint read_checkpoint(const std::string& path);
 
 /// What read_checkpoint() reads of a checkpoint.
 struct CheckpointScope {
-  /// When set, only the particles whose row (the file holds them by id) it marks, with their list
-  /// positions, and the pairs with a kept particle: a distributed restart's part.
-  const std::vector<std::uint8_t>* keep = nullptr;
+  /// When set, only the particles of these rows (ascending; the file holds them by id), with
+  /// their list positions, and the pairs with a kept particle: a distributed restart's part.
+  const std::vector<std::uint64_t>* rows = nullptr;
   /// Only the ids, positions and radii of the particles: what a distributed restart bisects.
   bool positions_only = false;
   /// The pairs are not read into stepper.slips: stepper.slip_source visits them all from the file,
   /// kept open, as a restoring Stepper takes them, so that they need no memory of their own.
   bool pairs_streamed = false;
+  /// Only the payload's head, unverified: the fingerprint, time, step, contact counts, list
+  /// builds and file_particles (no particle): what a distributed restart divides the rows by.
+  bool head_only = false;
 };
 
 /// Read and verify the part of a checkpoint that @p scope asks for.
 Checkpoint read_checkpoint(const std::string& path, const CheckpointScope& scope);
 
-/// The same, keeping only the particles whose row (the file holds them by id) @p keep marks, with
+/// The same, keeping only the particles of @p rows (ascending; the file holds them by id), with
 /// their list positions, and the pairs with a kept particle: a distributed restart's part.
-Checkpoint read_checkpoint(const std::string& path, const std::vector<std::uint8_t>& keep);
+Checkpoint read_checkpoint(const std::string& path, const std::vector<std::uint64_t>& rows);
 
 /// The ids, positions and radii of a checkpoint's particles, by id (no other field): what a
 /// distributed restart bisects before it reads its part.

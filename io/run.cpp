@@ -298,19 +298,18 @@ void check_checkpoint_fingerprint(std::uint64_t fingerprint, const Case& descrip
 Checkpoint read_fitting_checkpoint(const Case& description, const RunOptions& options,
                                    const RunPlan& plan, const Scene& scene,
                                    std::size_t case_particles,
-                                   const std::vector<std::uint8_t>* keep) {
+                                   const std::vector<std::uint64_t>* rows) {
   Checkpoint restored;
   try {
     // The pairs are read as the stepper takes them, into its slots: never all in memory.
     restored = read_checkpoint(options.restart_path,
-                               CheckpointScope{.keep = keep, .pairs_streamed = true});
+                               CheckpointScope{.rows = rows, .pairs_streamed = true});
   } catch (const CheckpointError& e) {
     throw CaseError(e.what());
   }
   check_checkpoint_fingerprint(restored.case_fingerprint, description, options, plan);
-  if (const std::string misfit = checkpoint_misfit(
-          restored, scene, description.materials.size(),
-          keep != nullptr ? keep->size() : restored.particles.size(), case_particles);
+  if (const std::string misfit = checkpoint_misfit(restored, scene, description.materials.size(),
+                                                   restored.file_particles, case_particles);
       !misfit.empty()) {
     throw CaseError(options.restart_path + ": checkpoint does not fit the case: it holds " +
                     misfit);

@@ -543,6 +543,18 @@ struct WholeRun {
   std::unique_ptr<Stepper> stepper;
 };
 
+/// bisect_spread()'s reductions across the processes of the run.
+SpreadReductions across_processes() {
+  return {[](std::span<double> values) {
+            MPI_Allreduce(MPI_IN_PLACE, values.data(), static_cast<int>(values.size()), MPI_DOUBLE,
+                          MPI_SUM, MPI_COMM_WORLD);
+          },
+          [](std::span<double> values) {
+            MPI_Allreduce(MPI_IN_PLACE, values.data(), static_cast<int>(values.size()), MPI_DOUBLE,
+                          MPI_MAX, MPI_COMM_WORLD);
+          }};
+}
+
 /// The halo of a distribution of @p all in @p frame: a stream may add particles larger than any
 /// present, so it reaches the run's largest radius.
 double distribution_halo(const Particles& all, const Scene& frame) {
@@ -1318,17 +1330,8 @@ class DistributedRun {
         if (arriving_outside_[k] == 0) add(arriving_, k, 1.0);
       }
     }
-    const SpreadReductions across{
-        [](std::span<double> values) {
-          MPI_Allreduce(MPI_IN_PLACE, values.data(), static_cast<int>(values.size()), MPI_DOUBLE,
-                        MPI_SUM, MPI_COMM_WORLD);
-        },
-        [](std::span<double> values) {
-          MPI_Allreduce(MPI_IN_PLACE, values.data(), static_cast<int>(values.size()), MPI_DOUBLE,
-                        MPI_MAX, MPI_COMM_WORLD);
-        }};
     return bisect_spread(x, y, z, cost, Box{frame_.domain.min, frame_.domain.max}, world_size(),
-                         halo_, across);
+                         halo_, across_processes());
   }
 
   /// The load above the mean (by stepping_costs()) at which a rebuild moves the cuts.
@@ -1427,41 +1430,61 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
     scene.emplace(build_scene(description, {}));
     std::vector<ParticleSpec>().swap(description.particles);
     std::vector<SlipRecord>().swap(description.initial_pairs);
-    // Each process reads only its part of the checkpoint: the cuts come from every particle's
-    // position, alike on every process (each weighing 1, as no list has measured the cost yet),
-    // then the rows of the part (owned and halo) and the pairs that touch them.
-    std::vector<std::uint8_t> keep;
+    // Each process reads only its part of the checkpoint, and none reads every particle: each
+    // reads the ids, positions and radii of a slice of the rows; the cuts come from all slices
+    // (bisect_spread(), each particle weighing 1, as no list has measured the cost yet); each
+    // process tells every other which rows of its slice lie in that one's part (owned or halo);
+    // each then reads those rows, and its stepper the pairs (streamed from the file).
+    std::vector<std::uint64_t> rows;
     {
-      Particles where;
+      std::uint64_t count = 0;
+      Particles slice;
+      const auto size = static_cast<std::uint64_t>(world_size());
+      const auto rank = static_cast<std::uint64_t>(world_rank());
       try {
-        Checkpoint positions =
-            read_checkpoint(options.restart_path, CheckpointScope{.positions_only = true});
+        const Checkpoint head =
+            read_checkpoint(options.restart_path, CheckpointScope{.head_only = true});
         // Before the bisection: a checkpoint of another case is refused as such.
-        check_checkpoint_fingerprint(positions.case_fingerprint, description, options, plan);
-        where = std::move(positions.particles);
+        check_checkpoint_fingerprint(head.case_fingerprint, description, options, plan);
+        count = head.file_particles;
+        std::vector<std::uint64_t> mine(count * (rank + 1) / size - count * rank / size);
+        std::iota(mine.begin(), mine.end(), count * rank / size);
+        slice = std::move(read_checkpoint(options.restart_path,
+                                          CheckpointScope{.rows = &mine, .positions_only = true})
+                              .particles);
       } catch (const CheckpointError& e) {
         throw CaseError(e.what());
       }
-      const double halo = distribution_halo(where, *scene);
-      const std::vector<double> weights(where.size(), 1.0);
-      restart_cuts.emplace(
-          RestartCuts{bisect(where.x, where.y, where.z, weights, where.id,
-                             Box{scene->domain.min, scene->domain.max}, world_size(), halo),
-                      halo});
-      const int rank = world_rank();
-      keep.assign(where.size(), 0);
-      for (std::size_t k = 0; k < where.size(); ++k) {
-        if (restart_cuts->decomposition.owner(where.x[k], where.y[k], where.z[k]) == rank) {
-          keep[k] = 1;
+      double halo = distribution_halo(slice, *scene);  // of the largest radius of every slice
+      MPI_Allreduce(MPI_IN_PLACE, &halo, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+      const std::vector<double> weights(slice.size(), 1.0);
+      const Decomposition cuts = bisect_spread(slice.x, slice.y, slice.z, weights,
+                                               Box{scene->domain.min, scene->domain.max},
+                                               world_size(), halo, across_processes());
+      restart_cuts.emplace(RestartCuts{cuts, halo});
+      std::vector<std::vector<char>> wanted(static_cast<std::size_t>(size));
+      std::vector<std::uint8_t> in_part(slice.size());
+      const std::uint64_t first_row = count * rank / size;
+      for (std::size_t r = 0; r < wanted.size(); ++r) {
+        for (std::size_t k = 0; k < slice.size(); ++k) {
+          in_part[k] = cuts.owner(slice.x[k], slice.y[k], slice.z[k]) == static_cast<int>(r);
         }
+        for (const std::uint32_t k : subdomain_members(cuts, static_cast<int>(r), scene->domain,
+                                                       halo, slice.x, slice.y, slice.z)) {
+          in_part[k] = 1;
+        }
+        std::vector<std::uint64_t> theirs;
+        for (std::size_t k = 0; k < slice.size(); ++k) {
+          if (in_part[k] != 0) theirs.push_back(first_row + k);
+        }
+        wanted[r] = bytes_of(theirs);
       }
-      for (const std::uint32_t k : subdomain_members(
-               restart_cuts->decomposition, rank, scene->domain, halo, where.x, where.y, where.z)) {
-        keep[k] = 1;
-      }
+      std::vector<std::int64_t> received;
+      rows = values_of<std::uint64_t>(bondem::exchanged(wanted, received));
+      std::sort(rows.begin(), rows.end());
     }
     Checkpoint restored =
-        read_fitting_checkpoint(description, options, plan, *scene, case_particles, &keep);
+        read_fitting_checkpoint(description, options, plan, *scene, case_particles, &rows);
     plan.first_step = restored.stepper.step;
     scene->particles = std::move(restored.particles);
     // As in run_case: displacements from here when the interrupted run did not track them.

@@ -45,13 +45,13 @@ void check_checkpoint_fingerprint(std::uint64_t fingerprint, const Case& descrip
 
 /// The checkpoint options.restart_path, checked to come from @p description, to fit @p scene (its
 /// layout: the particles need not be there) and the case's @p case_particles particles, and to
-/// end before the plan's last step; with @p keep, only the rows it marks (read_checkpoint()). Its
+/// end before the plan's last step; with @p rows, only those rows (read_checkpoint()). Its
 /// pairs are streamed (CheckpointScope::pairs_streamed) to the Stepper its state restores.
 /// Throws CaseError.
 Checkpoint read_fitting_checkpoint(const Case& description, const RunOptions& options,
                                    const RunPlan& plan, const Scene& scene,
                                    std::size_t case_particles,
-                                   const std::vector<std::uint8_t>* keep = nullptr);
+                                   const std::vector<std::uint64_t>* rows = nullptr);
 
 /// Refuses, before any output is written, an output.history_fields name without a column in
 /// this run, an output.vtk_fields name without a particle array, and a restart whose columns

@@ -261,9 +261,15 @@ TEST(PartialCheckpoint, KeepsTheMarkedRowsAndTheirPairs) {
     EXPECT_EQ(where.z[k], all.z[k]);
     EXPECT_EQ(where.radius[k], all.radius[k]);
   }
+  // Every third row.
   std::vector<std::uint8_t> keep(all.size(), 0);
   for (std::size_t k = 0; k < keep.size(); k += 3) keep[k] = 1;
-  const Checkpoint part = read_checkpoint(path, keep);
+  std::vector<std::uint64_t> rows;
+  for (std::size_t k = 0; k < keep.size(); ++k) {
+    if (keep[k] != 0) rows.push_back(k);
+  }
+  const Checkpoint part = read_checkpoint(path, rows);
+  EXPECT_EQ(part.file_particles, all.size());
   const Particles& p = part.particles;
   std::size_t at = 0;
   const auto width = static_cast<std::size_t>(3 * all.walls);
@@ -292,8 +298,14 @@ TEST(PartialCheckpoint, KeepsTheMarkedRowsAndTheirPairs) {
   ASSERT_FALSE(expected.empty());
   ASSERT_GT(whole.stepper.slips.size(), expected.size());  // some pairs are left out
   EXPECT_EQ(kept, expected);
-  EXPECT_THROW(read_checkpoint(path, std::vector<std::uint8_t>(all.size() + 1, 1)),
-               CheckpointError);
+  // A row beyond the file's, and rows out of order, are refused.
+  EXPECT_THROW(read_checkpoint(path, std::vector<std::uint64_t>{0, all.size()}), CheckpointError);
+  EXPECT_THROW(read_checkpoint(path, std::vector<std::uint64_t>{2, 1}), CheckpointError);
+  // The head alone: the particle count, unverified, without particles.
+  const Checkpoint head = read_checkpoint(path, CheckpointScope{.head_only = true});
+  EXPECT_EQ(head.file_particles, all.size());
+  EXPECT_EQ(head.case_fingerprint, whole.case_fingerprint);
+  EXPECT_EQ(head.particles.size(), 0u);
 }
 
 TEST(Restart, OnlyEndTimeAndOutputsMayChange) {
