@@ -1418,6 +1418,15 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
   std::optional<RestartCuts> restart_cuts;
   std::string history_text;
   const bool vtk = description.vtk_interval > 0.0;
+  // A restart's stages: each process reads the checkpoint's head and a slice of the rows'
+  // positions (alone: an error ends every process together); the cuts, found across the
+  // processes (collective: outside together(), where one process's error would leave the others
+  // waiting), and the rows each part needs; then each process reads its part.
+  std::size_t case_particles = 0;  // the case's own (a restart's checkpoint holds the particles)
+  std::uint64_t file_particles = 0;
+  Particles slice;  // a restart's: ids, positions and radii of this process's slice of rows
+  const auto size = static_cast<std::uint64_t>(world_size());
+  const auto rank = static_cast<std::uint64_t>(world_rank());
   together([&] {
     plan = plan_run(description, options);
     if (!plan.restarting) {
@@ -1426,74 +1435,72 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
       return;
     }
     // The checkpoint holds the particles: the case's only count, and set the layout.
-    const std::size_t case_particles = description.particles.size();
+    case_particles = description.particles.size();
     scene.emplace(build_scene(description, {}));
     std::vector<ParticleSpec>().swap(description.particles);
     std::vector<SlipRecord>().swap(description.initial_pairs);
-    // Each process reads only its part of the checkpoint, and none reads every particle: each
-    // reads the ids, positions and radii of a slice of the rows; the cuts come from all slices
-    // (bisect_spread(), each particle weighing 1, as no list has measured the cost yet); each
-    // process tells every other which rows of its slice lie in that one's part (owned or halo);
-    // each then reads those rows, and its stepper the pairs (streamed from the file).
-    std::vector<std::uint64_t> rows;
-    {
-      std::uint64_t count = 0;
-      Particles slice;
-      const auto size = static_cast<std::uint64_t>(world_size());
-      const auto rank = static_cast<std::uint64_t>(world_rank());
-      try {
-        const Checkpoint head =
-            read_checkpoint(options.restart_path, CheckpointScope{.head_only = true});
-        // Before the bisection: a checkpoint of another case is refused as such.
-        check_checkpoint_fingerprint(head.case_fingerprint, description, options, plan);
-        count = head.file_particles;
-        std::vector<std::uint64_t> mine(count * (rank + 1) / size - count * rank / size);
-        std::iota(mine.begin(), mine.end(), count * rank / size);
-        slice = std::move(read_checkpoint(options.restart_path,
-                                          CheckpointScope{.rows = &mine, .positions_only = true})
-                              .particles);
-      } catch (const CheckpointError& e) {
-        throw CaseError(e.what());
-      }
-      double halo = distribution_halo(slice, *scene);  // of the largest radius of every slice
-      MPI_Allreduce(MPI_IN_PLACE, &halo, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
-      const std::vector<double> weights(slice.size(), 1.0);
-      const Decomposition cuts = bisect_spread(slice.x, slice.y, slice.z, weights,
-                                               Box{scene->domain.min, scene->domain.max},
-                                               world_size(), halo, across_processes());
-      restart_cuts.emplace(RestartCuts{cuts, halo});
-      std::vector<std::vector<char>> wanted(static_cast<std::size_t>(size));
-      std::vector<std::uint8_t> in_part(slice.size());
-      const std::uint64_t first_row = count * rank / size;
-      for (std::size_t r = 0; r < wanted.size(); ++r) {
-        for (std::size_t k = 0; k < slice.size(); ++k) {
-          in_part[k] = cuts.owner(slice.x[k], slice.y[k], slice.z[k]) == static_cast<int>(r);
-        }
-        for (const std::uint32_t k : subdomain_members(cuts, static_cast<int>(r), scene->domain,
-                                                       halo, slice.x, slice.y, slice.z)) {
-          in_part[k] = 1;
-        }
-        std::vector<std::uint64_t> theirs;
-        for (std::size_t k = 0; k < slice.size(); ++k) {
-          if (in_part[k] != 0) theirs.push_back(first_row + k);
-        }
-        wanted[r] = bytes_of(theirs);
-      }
-      std::vector<std::int64_t> received;
-      rows = values_of<std::uint64_t>(bondem::exchanged(wanted, received));
-      std::sort(rows.begin(), rows.end());
+    try {
+      const Checkpoint head =
+          read_checkpoint(options.restart_path, CheckpointScope{.head_only = true});
+      // Before the bisection: a checkpoint of another case is refused as such.
+      check_checkpoint_fingerprint(head.case_fingerprint, description, options, plan);
+      file_particles = head.file_particles;
+      std::vector<std::uint64_t> mine(file_particles * (rank + 1) / size -
+                                      file_particles * rank / size);
+      std::iota(mine.begin(), mine.end(), file_particles * rank / size);
+      slice = std::move(read_checkpoint(options.restart_path,
+                                        CheckpointScope{.rows = &mine, .positions_only = true})
+                            .particles);
+    } catch (const CheckpointError& e) {
+      throw CaseError(e.what());
     }
-    Checkpoint restored =
-        read_fitting_checkpoint(description, options, plan, *scene, case_particles, &rows);
-    plan.first_step = restored.stepper.step;
-    scene->particles = std::move(restored.particles);
-    // As in run_case: displacements from here when the interrupted run did not track them.
-    if (vtk && !scene->particles.displacement_tracked) scene->particles.track_displacement();
-    history_text = history_without_end_row(restored.history, restored.stepper.step,
-                                           restored.stepper.time, plan.history_every);
-    state = std::move(restored.stepper);
-    check_output_fields(description, *scene, history_text);
   });
+  if (plan.restarting) {
+    // No process reads every particle: the cuts come from all slices (bisect_spread(), each
+    // particle weighing 1, as no list has measured the cost yet); each process tells every
+    // other which rows of its slice lie in that one's part (owned or halo); each then reads
+    // those rows, and its stepper the pairs (streamed from the file).
+    double halo = distribution_halo(slice, *scene);  // of the largest radius of every slice
+    MPI_Allreduce(MPI_IN_PLACE, &halo, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+    const std::vector<double> weights(slice.size(), 1.0);
+    const Decomposition cuts =
+        bisect_spread(slice.x, slice.y, slice.z, weights, Box{scene->domain.min, scene->domain.max},
+                      world_size(), halo, across_processes());
+    restart_cuts.emplace(RestartCuts{cuts, halo});
+    std::vector<std::vector<char>> wanted(static_cast<std::size_t>(size));
+    std::vector<std::uint8_t> in_part(slice.size());
+    const std::uint64_t first_row = file_particles * rank / size;
+    for (std::size_t r = 0; r < wanted.size(); ++r) {
+      for (std::size_t k = 0; k < slice.size(); ++k) {
+        in_part[k] = cuts.owner(slice.x[k], slice.y[k], slice.z[k]) == static_cast<int>(r);
+      }
+      for (const std::uint32_t k : subdomain_members(cuts, static_cast<int>(r), scene->domain, halo,
+                                                     slice.x, slice.y, slice.z)) {
+        in_part[k] = 1;
+      }
+      std::vector<std::uint64_t> theirs;
+      for (std::size_t k = 0; k < slice.size(); ++k) {
+        if (in_part[k] != 0) theirs.push_back(first_row + k);
+      }
+      wanted[r] = bytes_of(theirs);
+    }
+    slice = Particles{};
+    std::vector<std::int64_t> received;
+    std::vector<std::uint64_t> rows = values_of<std::uint64_t>(bondem::exchanged(wanted, received));
+    std::sort(rows.begin(), rows.end());
+    together([&] {
+      Checkpoint restored =
+          read_fitting_checkpoint(description, options, plan, *scene, case_particles, &rows);
+      plan.first_step = restored.stepper.step;
+      scene->particles = std::move(restored.particles);
+      // As in run_case: displacements from here when the interrupted run did not track them.
+      if (vtk && !scene->particles.displacement_tracked) scene->particles.track_displacement();
+      history_text = history_without_end_row(restored.history, restored.stepper.step,
+                                             restored.stepper.time, plan.history_every);
+      state = std::move(restored.stepper);
+      check_output_fields(description, *scene, history_text);
+    });
+  }
   note_memory("scene built");
   together([&] {
     if (root) prepare_output_directory(description, options, plan);
