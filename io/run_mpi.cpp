@@ -555,11 +555,10 @@ SpreadReductions across_processes() {
           }};
 }
 
-/// The halo of a distribution of @p all in @p frame: a stream may add particles larger than any
-/// present, so it reaches the run's largest radius.
-double distribution_halo(const Particles& all, const Scene& frame) {
-  return std::max(decomposition_halo(all, frame),
-                  2.0 * frame.largest_radius + frame.contact_range + 2.0 * frame.skin);
+/// The halo of a run of scene @p frame: decomposition_halo() of its largest radius, the case's
+/// and its streams' (Scene::largest_radius), which no particle of the run exceeds.
+double run_halo(const Scene& frame) {
+  return 2.0 * frame.largest_radius + frame.contact_range + 2.0 * frame.skin;
 }
 
 /// The cuts of a restart, decided from every particle's position before each process reads only
@@ -1368,8 +1367,7 @@ std::optional<DistributedRun> start_fresh(Case& description) {
   Scene frame = build_scene(description, {});  // the values derived from every particle
   const std::vector<ParticleSpec>& specs = description.particles;
   const std::size_t n = specs.size();
-  // The halo reaches the largest radius of the run, streams' included.
-  const double halo = 2.0 * frame.largest_radius + frame.contact_range + 2.0 * frame.skin;
+  const double halo = run_halo(frame);
   std::vector<std::uint32_t> mine;
   Decomposition decomposition;
   {
@@ -1460,19 +1458,22 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
     // particle weighing 1, as no list has measured the cost yet); each process tells every
     // other which rows of its slice lie in that one's part (owned or halo); each then reads
     // those rows, and its stepper the pairs (streamed from the file).
-    double halo = distribution_halo(slice, *scene);  // of the largest radius of every slice
-    MPI_Allreduce(MPI_IN_PLACE, &halo, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+    const double halo = run_halo(*scene);
     const std::vector<double> weights(slice.size(), 1.0);
     const Decomposition cuts =
         bisect_spread(slice.x, slice.y, slice.z, weights, Box{scene->domain.min, scene->domain.max},
                       world_size(), halo, across_processes());
     restart_cuts.emplace(RestartCuts{cuts, halo});
     std::vector<std::vector<char>> wanted(static_cast<std::size_t>(size));
+    std::vector<int> owner(slice.size());
+    for (std::size_t k = 0; k < slice.size(); ++k) {
+      owner[k] = cuts.owner(slice.x[k], slice.y[k], slice.z[k]);
+    }
     std::vector<std::uint8_t> in_part(slice.size());
     const std::uint64_t first_row = file_particles * rank / size;
     for (std::size_t r = 0; r < wanted.size(); ++r) {
       for (std::size_t k = 0; k < slice.size(); ++k) {
-        in_part[k] = cuts.owner(slice.x[k], slice.y[k], slice.z[k]) == static_cast<int>(r);
+        in_part[k] = owner[k] == static_cast<int>(r) ? 1 : 0;
       }
       for (const std::uint32_t k : subdomain_members(cuts, static_cast<int>(r), scene->domain, halo,
                                                      slice.x, slice.y, slice.z)) {

@@ -45,9 +45,13 @@ double clamped_cut(double position, const Box& box, int axis, double min_width) 
 }
 
 /// Builds the subtree of @p ranks subdomains, ranks first_rank.., for particles @p members
-/// inside @p box into @p nodes; returns its root.
-int bisect_node(const Items& items, std::vector<std::uint32_t>& members, const Box& box,
-                int first_rank, int ranks, double min_width, std::vector<BisectionCut>& nodes) {
+/// (indices into @p coordinate) inside @p box into @p nodes; returns its root. Each cut is on
+/// cut_axis(), at @p position_of(members, axis, box, low_ranks, ranks), moved to leave both
+/// sides min_width wide: the one step in which bisect() and bisect_spread() differ.
+template <class PositionOf>
+int build_subtree(const std::array<std::span<const double>, 3>& coordinate,
+                  std::vector<std::uint32_t>& members, const Box& box, int first_rank, int ranks,
+                  double min_width, std::vector<BisectionCut>& nodes, PositionOf& position_of) {
   const int node = static_cast<int>(nodes.size());
   nodes.emplace_back();
   if (ranks == 1) {
@@ -55,16 +59,42 @@ int bisect_node(const Items& items, std::vector<std::uint32_t>& members, const B
     return node;
   }
   const int axis = cut_axis(box, ranks, min_width);
+  const int low_ranks = ranks / 2;
+  const double position =
+      clamped_cut(position_of(members, axis, box, low_ranks, ranks), box, axis, min_width);
+  const std::span<const double> c = coordinate[static_cast<std::size_t>(axis)];
+  const auto split = std::partition(members.begin(), members.end(),
+                                    [&](std::uint32_t i) { return c[i] < position; });
+  std::vector<std::uint32_t> high(split, members.end());
+  members.erase(split, members.end());
+  Box low_box = box, high_box = box;
+  low_box.max[axis] = position;
+  high_box.min[axis] = position;
+  const int low = build_subtree(coordinate, members, low_box, first_rank, low_ranks, min_width,
+                                nodes, position_of);
+  const int high_node = build_subtree(coordinate, high, high_box, first_rank + low_ranks,
+                                      ranks - low_ranks, min_width, nodes, position_of);
+  BisectionCut& cut = nodes[static_cast<std::size_t>(node)];
+  cut.axis = axis;
+  cut.position = position;
+  cut.low = low;
+  cut.high = high_node;
+  return node;
+}
+
+/// bisect()'s cut of @p members along @p axis: between the two distinct coordinates whose
+/// low-side cost is nearest @p low_ranks / @p ranks of the total, the first on a tie (the box's
+/// middle when there are no two distinct coordinates).
+double cut_position(const Items& items, std::vector<std::uint32_t>& members, int axis,
+                    const Box& box, int low_ranks, int ranks) {
   const std::span<const double> coordinate = items.coordinate[static_cast<std::size_t>(axis)];
   std::sort(members.begin(), members.end(), [&](std::uint32_t a, std::uint32_t b) {
     return coordinate[a] != coordinate[b] ? coordinate[a] < coordinate[b]
                                           : items.id[a] < items.id[b];
   });
-  const int low_ranks = ranks / 2;
   double total = 0.0;
   for (const std::uint32_t i : members) total += items.cost[i];
   const double target = total * low_ranks / ranks;
-  // The split between two distinct coordinates whose low-side cost is nearest the target.
   const std::size_t n = members.size();
   std::size_t best = n;
   double best_miss = std::numeric_limits<double>::infinity();
@@ -78,25 +108,8 @@ int bisect_node(const Items& items, std::vector<std::uint32_t>& members, const B
       best = b;
     }
   }
-  double position = best < n ? 0.5 * (coordinate[members[best - 1]] + coordinate[members[best]])
-                             : 0.5 * (box.min[axis] + box.max[axis]);
-  position = clamped_cut(position, box, axis, min_width);
-  const auto split = std::partition_point(
-      members.begin(), members.end(), [&](std::uint32_t i) { return coordinate[i] < position; });
-  std::vector<std::uint32_t> high(split, members.end());
-  members.erase(split, members.end());
-  Box low_box = box, high_box = box;
-  low_box.max[axis] = position;
-  high_box.min[axis] = position;
-  const int low = bisect_node(items, members, low_box, first_rank, low_ranks, min_width, nodes);
-  const int high_node = bisect_node(items, high, high_box, first_rank + low_ranks,
-                                    ranks - low_ranks, min_width, nodes);
-  BisectionCut& cut = nodes[static_cast<std::size_t>(node)];
-  cut.axis = axis;
-  cut.position = position;
-  cut.low = low;
-  cut.high = high_node;
-  return node;
+  return best < n ? 0.5 * (coordinate[members[best - 1]] + coordinate[members[best]])
+                  : 0.5 * (box.min[axis] + box.max[axis]);
 }
 
 /// @p value as an unsigned key in the order of the doubles (a negative one's bits inverted, the
@@ -119,25 +132,17 @@ double from_ordered_key(std::uint64_t key) {
 
 }  // namespace
 
-/// bisect_spread()'s tree, built alike on every process from the reductions across them.
-struct SpreadBisection {
+/// bisect()'s cut position found from reductions across the processes, each holding some of the
+/// particles: built alike on every process.
+struct SpreadCut {
   std::array<std::span<const double>, 3> coordinate;
   std::span<const double> cost;
-  double min_width;
   const SpreadReductions& across;
-  std::vector<BisectionCut>& nodes;
 
-  /// As bisect_node(), this process's @p members of the node's particles at hand.
-  int node(std::vector<std::uint32_t>& members, const Box& box, int first_rank, int ranks) {
-    const int node = static_cast<int>(nodes.size());
-    nodes.emplace_back();
-    if (ranks == 1) {
-      nodes[static_cast<std::size_t>(node)].rank = first_rank;
-      return node;
-    }
-    const int axis = cut_axis(box, ranks, min_width);
+  /// The cut of the node's particles, this process's @p members of them, along @p axis.
+  double operator()(const std::vector<std::uint32_t>& members, int axis, const Box& box,
+                    int low_ranks, int ranks) const {
     const std::span<const double> c = coordinate[static_cast<std::size_t>(axis)];
-    const int low_ranks = ranks / 2;
     constexpr double kNone = -std::numeric_limits<double>::infinity();
     double totals[2] = {0.0, 0.0};        // particles, cost
     double extremes[2] = {kNone, kNone};  // the largest coordinate, and minus the smallest
@@ -194,22 +199,7 @@ struct SpreadBisection {
         position = 0.5 * (a - around[1]);
       }
     }
-    position = clamped_cut(position, box, axis, min_width);
-    const auto split = std::partition(members.begin(), members.end(),
-                                      [&](std::uint32_t i) { return c[i] < position; });
-    std::vector<std::uint32_t> high(split, members.end());
-    members.erase(split, members.end());
-    Box low_box = box, high_box = box;
-    low_box.max[axis] = position;
-    high_box.min[axis] = position;
-    const int low = this->node(members, low_box, first_rank, low_ranks);
-    const int high_node = this->node(high, high_box, first_rank + low_ranks, ranks - low_ranks);
-    BisectionCut& cut = nodes[static_cast<std::size_t>(node)];
-    cut.axis = axis;
-    cut.position = position;
-    cut.low = low;
-    cut.high = high_node;
-    return node;
+    return position;
   }
 };
 
@@ -226,7 +216,8 @@ Decomposition bisect_spread(std::span<const double> x, std::span<const double> y
   d.ranks_ = ranks;
   std::vector<std::uint32_t> members(n);
   std::iota(members.begin(), members.end(), std::uint32_t{0});
-  SpreadBisection{{x, y, z}, cost, min_width, across, d.nodes_}.node(members, domain, 0, ranks);
+  SpreadCut position_of{{x, y, z}, cost, across};
+  build_subtree({x, y, z}, members, domain, 0, ranks, min_width, d.nodes_, position_of);
   return d;
 }
 
@@ -303,7 +294,11 @@ Decomposition bisect(std::span<const double> x, std::span<const double> y,
   std::iota(members.begin(), members.end(), std::uint32_t{0});
   Decomposition d;
   d.ranks_ = ranks;
-  bisect_node(items, members, domain, 0, ranks, min_width, d.nodes_);
+  const auto position_of = [&](std::vector<std::uint32_t>& node_members, int axis, const Box& box,
+                               int low_ranks, int node_ranks) {
+    return cut_position(items, node_members, axis, box, low_ranks, node_ranks);
+  };
+  build_subtree(items.coordinate, members, domain, 0, ranks, min_width, d.nodes_, position_of);
   return d;
 }
 
