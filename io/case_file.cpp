@@ -811,7 +811,7 @@ void check_initial_overlaps(const Reader& reader, const Case& c,
   const bool inserted = later.key.rfind("insert.", 0) == 0;
   std::string what;
   if (inserted) {
-    const Eigen::Vector3d& x = c.particles[overlap->later].position;
+    const Eigen::Vector3d x = c.particles[overlap->later].position;
     what = "its particle at [" + message_number(x.x()) + ", " + message_number(x.y()) + ", " +
            message_number(x.z()) + "] ";
   }
@@ -1083,6 +1083,7 @@ void read_insertions(const Reader& reader, Case& c, const YAML::Node& insert,
     const YAML::Node type = reader.require(body, path, "type");
     const std::string kind = reader.text(type, path + ".type");
     std::vector<ParticleSpec> added;
+    std::optional<LatticeBlock> lattice;  // kept as a block: it stores no particle
     Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
     try {
       if (kind == "lattice") {
@@ -1113,7 +1114,7 @@ void read_insertions(const Reader& reader, Case& c, const YAML::Node& insert,
                           message_number(c.max_overlap_fraction) +
                           " allows (the run would stop at its first step)");
         }
-        added = insert_lattice(region, spacing, radius, material_index(reader, c, body, path));
+        lattice = lattice_block(region, spacing, radius, material_index(reader, c, body, path));
       } else if (kind == "random") {
         reader.check_keys(body, path,
                           {"type", "region", "material", "count", "solid_fraction", "radius",
@@ -1157,19 +1158,23 @@ void read_insertions(const Reader& reader, Case& c, const YAML::Node& insert,
     }
     if (const YAML::Node v = body["velocity"]) velocity = reader.velocity(v, path + ".velocity");
     const double temperature = particle_temperature(reader, c, body, path);
-    if (!added.empty()) entries.push_back({c.particles.size(), path, body});
+    if (!added.empty() || (lattice && lattice->size() > 0)) {
+      entries.push_back({c.particles.size(), path, body});
+    }
     for (ParticleSpec& p : added) {
       p.velocity = velocity;
       p.temperature = temperature;
       check_inside(reader, c, p, body, path);
     }
-    // Moved, or appended once: copying 10^6 specs one by one, with the regrowth, took a tenth of
-    // the set-up of a 10^6 lattice.
-    if (c.particles.empty()) {
-      c.particles = std::move(added);
-    } else {
-      c.particles.insert(c.particles.end(), added.begin(), added.end());
+    if (lattice) {
+      lattice->velocity = velocity;
+      lattice->temperature = temperature;
+      for (std::size_t i = 0; i < lattice->size(); ++i) {
+        check_inside(reader, c, lattice->at(i), body, path);
+      }
+      c.particles.append(*lattice);
     }
+    c.particles.append(std::move(added));
   }
 }
 

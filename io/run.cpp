@@ -504,7 +504,7 @@ RunResult run_case(Case description, const RunOptions& options, std::ostream& lo
   // The case's particle list has become the scene's particles, its initial pairs the scene's,
   // and the plan holds what was derived from them (fingerprint, limits): the run does not keep a
   // second copy (104 B a particle, 72 B a pair).
-  std::vector<ParticleSpec>().swap(description.particles);
+  description.particles.clear();
   std::vector<SlipRecord>().swap(description.initial_pairs);
   std::optional<Stepper> stepper;
   std::string history_text;  // of the checkpoint a restart continues

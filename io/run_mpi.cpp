@@ -1358,47 +1358,55 @@ class DistributedRun {
   PhaseTimer timer_;
 };
 
-/// A fresh run's start with no process holding the whole scene: every process bisects the
-/// case's particles by count (each weighing 1: no list has measured their cost yet, and the first
-/// rebuild moves the cuts if the measured cost is off balance), builds the scene of the particles
-/// it owns and frees the case's particle list; the parts then trade halos and evaluate their
-/// initial forces.
+/// A fresh run's start with no process holding the whole scene or every position: the cuts come
+/// from each process's slice of the case's particles (bisect_spread(), each weighing 1: no list
+/// has measured their cost yet, and the first rebuild moves the cuts if the measured cost is off
+/// balance); each process then walks the list for the particles it owns (a lattice block
+/// computes them, none is kept) and builds their scene; the parts then trade halos and evaluate
+/// their initial forces.
 std::optional<DistributedRun> start_fresh(Case& description) {
   Scene frame = build_scene(description, {});  // the values derived from every particle
-  const std::vector<ParticleSpec>& specs = description.particles;
+  const ParticleList& specs = description.particles;
   const std::size_t n = specs.size();
   const double halo = run_halo(frame);
-  std::vector<std::uint32_t> mine;
+  const Domain& domain = frame.domain;
+  const Eigen::Vector3d length = domain.length();
+  const auto wrapped = [&](Eigen::Vector3d x) {  // as a list build wraps it
+    for (int a = 0; a < 3; ++a) {
+      if (domain.periodic[a]) x[a] = wrap_periodic(x[a], domain.min[a], length[a]);
+    }
+    return x;
+  };
   Decomposition decomposition;
   {
-    Particles where;  // the positions only, wrapped as the parts' will be
-    where.x.resize(n);
-    where.y.resize(n);
-    where.z.resize(n);
-    std::vector<double> cost(n, 1.0);
-    std::vector<std::int64_t> order(n);  // ties between equal coordinates go by list position
-    for (std::size_t i = 0; i < n; ++i) {
-      where.x[i] = specs[i].position.x();
-      where.y[i] = specs[i].position.y();
-      where.z[i] = specs[i].position.z();
-      order[i] = static_cast<std::int64_t>(i);
+    const auto size = static_cast<std::size_t>(world_size());
+    const auto rank = static_cast<std::size_t>(world_rank());
+    const std::size_t first = n * rank / size;
+    const std::size_t count = n * (rank + 1) / size - first;
+    std::vector<double> x(count), y(count), z(count);  // this process's slice of the list
+    for (std::size_t k = 0; k < count; ++k) {
+      const Eigen::Vector3d at = wrapped(specs[first + k].position);
+      x[k] = at.x();
+      y[k] = at.y();
+      z[k] = at.z();
     }
-    wrap_periodic_positions(where, frame.domain);
-    decomposition = bisect(where.x, where.y, where.z, cost, order,
-                           Box{frame.domain.min, frame.domain.max}, world_size(), halo);
-    for (std::size_t i = 0; i < n; ++i) {
-      if (decomposition.owner(where.x[i], where.y[i], where.z[i]) == world_rank()) {
-        mine.push_back(static_cast<std::uint32_t>(i));
-      }
+    const std::vector<double> weights(count, 1.0);
+    decomposition = bisect_spread(x, y, z, weights, Box{domain.min, domain.max}, world_size(), halo,
+                                  across_processes());
+  }
+  std::vector<std::uint32_t> mine;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3d x = wrapped(specs[i].position);
+    if (decomposition.owner(x.x(), x.y(), x.z()) == world_rank()) {
+      mine.push_back(static_cast<std::uint32_t>(i));
     }
   }
   // The id after the largest, as Stepper(scene) finds it in the whole scene.
-  std::int64_t next_id = 0;
-  for (const std::int64_t id : particle_ids(description)) next_id = std::max(next_id, id + 1);
+  const std::int64_t next_id = next_particle_id(description);
   Scene own = build_scene(description, mine);
-  std::vector<ParticleSpec>().swap(description.particles);
+  description.particles.clear();
   Particles owned = std::move(own.particles);
-  wrap_periodic_positions(owned, frame.domain);
+  wrap_periodic_positions(owned, domain);
   own.particles = owned.selected({});  // the frame keeps the layout, no particle
   std::optional<DistributedRun> run;
   run.emplace(std::move(own), std::move(owned), decomposition, halo, next_id);
@@ -1435,7 +1443,7 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
     // The checkpoint holds the particles: the case's only count, and set the layout.
     case_particles = description.particles.size();
     scene.emplace(build_scene(description, {}));
-    std::vector<ParticleSpec>().swap(description.particles);
+    description.particles.clear();
     std::vector<SlipRecord>().swap(description.initial_pairs);
     try {
       const Checkpoint head =

@@ -164,8 +164,8 @@ TEST(CaseFingerprint, CaseBuiltInCodeIsCovered) {
     change(other);
     return case_fingerprint(other) != fingerprint;
   };
-  EXPECT_TRUE(changed([](Case& c) { c.particles[1].position.z() += 1e-9; }));
-  EXPECT_TRUE(changed([](Case& c) { c.particles[0].temperature = 300.0; }));
+  EXPECT_TRUE(changed([](Case& c) { c.particles.edit(1).position.z() += 1e-9; }));
+  EXPECT_TRUE(changed([](Case& c) { c.particles.edit(0).temperature = 300.0; }));
   // The roller is walls.1, the boundary after the floor.
   ASSERT_TRUE(std::holds_alternative<CylinderShape>(base.boundaries.at(1).shape));
   EXPECT_TRUE(changed([](Case& c) { c.boundaries[1].motion.keys[0].velocity.x() = 0.06; }));
@@ -221,11 +221,11 @@ TEST(CaseFingerprint, ManyParticlesHashTheSameOnAnyThreadCountAndEachCounts) {
   for (const std::size_t k :
        {std::size_t{0}, std::size_t{4095}, std::size_t{4096}, std::size_t{9999}}) {
     Case changed = c;
-    changed.particles[k].velocity.z() = 1e-9;
+    changed.particles.edit(k).velocity.z() = 1e-9;
     EXPECT_NE(case_fingerprint(changed), one_thread) << "particle " << k;
   }
   Case swapped = c;  // the same particles in another order are another case (ids by place)
-  std::swap(swapped.particles[10].position, swapped.particles[5000].position);
+  std::swap(swapped.particles.edit(10).position, swapped.particles.edit(5000).position);
   EXPECT_NE(case_fingerprint(swapped), one_thread);
 }
 

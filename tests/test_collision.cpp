@@ -105,7 +105,7 @@ TEST(Collision, UnequalPairSettlesAtItsEquilibrium) {
 
 TEST(Collision, RefusesCasesWithoutTwoParticles) {
   Case c = paper_case();
-  c.particles.pop_back();
+  c.particles.expanded().pop_back();
   EXPECT_THROW(collide(c, 1.0), std::invalid_argument);
   EXPECT_THROW(collide(paper_case(), -1.0), std::invalid_argument);
 }

@@ -92,7 +92,7 @@ TEST(JkrContact, PullOffBreaksTheContactOnlyPastTheSeparationOverlap) {
   // The pair pulled apart at 1 mm/s: the force is attractive while the overlap is negative, and
   // vanishes once the gap exceeds the separation distance.
   Case c = parse_case(kPair, "case.yaml", {"contact.restitution=1", "time.end=1.0e-5"});
-  c.particles[1].position.x() =
+  c.particles.edit(1).position.x() =
       2.0e-4 - jkr_rest_overlap(5e-5, effective_modulus(1e7, 0.3, 1e7, 0.3), 0.1);
   Scene scene = build_scene(c);
   Stepper stepper(scene);
@@ -172,8 +172,8 @@ Resting resting_sphere(const std::string& contact, double velocity, double end) 
       "output: {directory: out}\n";
   r.c = parse_case(text, "case.yaml");
   // Placed in code: the reader refuses a particle overlapping a wall.
-  r.c.particles[0].position.z() = r.radius - r.overlap;
-  r.c.particles[0].velocity.x() = velocity;
+  r.c.particles.edit(0).position.z() = r.radius - r.overlap;
+  r.c.particles.edit(0).velocity.x() = velocity;
   return r;
 }
 

@@ -184,8 +184,8 @@ TEST(MeshFloor, SphereOnATwoTriangleSquareCarriesItsWeightAsOnAPlane) {
   // all in that face region, so the whole trajectory is bit for bit the plane's.
   const Vector3d drop(0.5e-3, -0.3e-3, kRadius + 20e-6);
   for (Case* c : {&on_plane, &on_mesh}) {
-    c->particles[0].position = drop;
-    c->particles[0].velocity = Vector3d(0.01, 0.0, 0.0);
+    c->particles.edit(0).position = drop;
+    c->particles.edit(0).velocity = Vector3d(0.01, 0.0, 0.0);
   }
   const Track plane = run_track(on_plane, 15000);
   const Track mesh = run_track(on_mesh, 15000);
@@ -204,8 +204,8 @@ TEST(MeshFloor, SphereOnATwoTriangleSquareCarriesItsWeightAsOnAPlane) {
   // 4e-17 m/s, 0 m).
   const Vector3d diagonal(0.4e-3, 0.4e-3, kRadius + 20e-6);
   for (Case* c : {&on_plane, &on_mesh}) {
-    c->particles[0].position = diagonal;
-    c->particles[0].velocity = Vector3d::Zero();
+    c->particles.edit(0).position = diagonal;
+    c->particles.edit(0).velocity = Vector3d::Zero();
   }
   const Track plane_diagonal = run_track(on_plane, 15000);
   const Track mesh_diagonal = run_track(on_mesh, 15000);
@@ -279,7 +279,7 @@ std::vector<FloorPath> floor_paths() {
 
 Case floor_case(const FloorPath& path, bool mesh) {
   Case c = one_sphere(path.position, path.friction, path.rolling_friction);
-  c.particles[0].velocity = path.velocity;
+  c.particles.edit(0).velocity = path.velocity;
   c.boundaries.push_back(mesh ? floor_mesh(tessellated_square(kFloorLo, kFloorHi, kSquares))
                               : floor_plane());
   return c;
@@ -483,7 +483,7 @@ TEST(MeshEdge, SphereOnAConvexEdgeOrCornerIsPushedAlongItsNormal) {
   Case mesh_case = outside_case(features[0].point, edge_u, -2e-6, true);
   Case box_case = outside_case(features[0].point, edge_u, -2e-6, false);
   for (Case* c : {&mesh_case, &box_case}) {
-    c->particles[0].velocity = -0.05 * edge_u + Vector3d(0.0, 0.02, 0.0);
+    c->particles.edit(0).velocity = -0.05 * edge_u + Vector3d(0.0, 0.02, 0.0);
   }
   const Track mesh = run_track(mesh_case, 3000);
   const Track box = run_track(box_case, 3000);
@@ -505,7 +505,7 @@ Track edge_bounce(bool flip) {
   const double phi = 35.0 * std::numbers::pi / 180.0;
   const Vector3d u(std::cos(phi), 0.0, std::sin(phi));
   Case c = outside_case(kCubeCentre + kCubeHalf * Vector3d(1.0, 0.3, 1.0), u, -2e-6, true, flip);
-  c.particles[0].velocity = -0.05 * u + Vector3d(0.0, 0.02, 0.0);
+  c.particles.edit(0).velocity = -0.05 * u + Vector3d(0.0, 0.02, 0.0);
   return run_track(c, 3000);
 }
 
@@ -681,7 +681,7 @@ Case stirred_gas(double end) {
   const Vector3d axis_point(0.008, 0.008, 0.008);
   const Vector3d half(4e-3, 0.5e-3, 1.5e-3);
   const BoxShape slab{half};
-  std::erase_if(c.particles, [&](const ParticleSpec& p) {
+  std::erase_if(c.particles.expanded(), [&](const ParticleSpec& p) {
     return slab.nearest(p.position - axis_point).gap < p.radius + 2e-5;
   });
   const bool open[6] = {false, false, false, false, true, false};  // the floor is a mesh

@@ -299,7 +299,7 @@ TEST(History, ARestartContinuesItsTextWithoutARowAtTheStart) {
 
 TEST(History, ANonFiniteTotalIsABlowUpAndItsRowIsNotWritten) {
   Case c = two_spheres();
-  c.particles[0].velocity.x() = 1e200;  // finite, but its kinetic energy is not
+  c.particles.edit(0).velocity.x() = 1e200;  // finite, but its kinetic energy is not
   Fixture f(5, c);
   std::string sunk;
   History history(f.scene, 1, [&](const std::string& text) { sunk += text; });

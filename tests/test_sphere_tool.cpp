@@ -159,7 +159,7 @@ TEST(SphereTool, ParticleFallingOffCentreSlidesOffItAndFallsPast) {
   // past the sphere's equator instead of resting on it.
   const double tool_radius = 0.005;
   Case c = drop_on_sphere(tool_radius, 0.3, 1e-4);
-  c.particles[0].position.x() = 5e-4;
+  c.particles.edit(0).position.x() = 5e-4;
   Scene scene = build_scene(c);
   Stepper stepper(scene);
   const Particles& p = scene.particles;

@@ -218,7 +218,7 @@ Case colliding_bed(bool periodic_z) {
   testing::add_random_gas(c, 400, 0.3e-3, 0.5e-3, 0.008, 2.0, 17);
   c.domain->periodic = {true, true, periodic_z};
   Rng rng(23);
-  for (ParticleSpec& p : c.particles) p.temperature = 300.0 + 1000.0 * uniform01(rng);
+  for (ParticleSpec& p : c.particles.expanded()) p.temperature = 300.0 + 1000.0 * uniform01(rng);
   return c;
 }
 

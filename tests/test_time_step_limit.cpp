@@ -82,8 +82,8 @@ time: {step: 1.0e-7, end: 1.0}
   const double omega = std::sqrt(k / m);
   // A push far too small to reach the sign rule (damping force << the weight) or to change k.
   const double push = 1e-7 * static_overlap * omega;
-  c.particles[0].position.z() = r - static_overlap;
-  c.particles[0].velocity.z() = push;
+  c.particles.edit(0).position.z() = r - static_overlap;
+  c.particles.edit(0).velocity.z() = push;
   c.time_step = step_factor * damped_stability_step(k, m, damping_ratio);
   Scene scene = build_scene(c);
   Stepper stepper(scene);
@@ -202,7 +202,7 @@ TEST(CaseLimit, ToolSpeedEntersTheLimit) {
 
 TEST(CaseLimit, UnphysicalSpeedIsAnErrorNamingTheParticle) {
   Case c = paper_case();
-  c.particles[1].velocity.x() = -1e300;
+  c.particles.edit(1).velocity.x() = -1e300;
   try {
     case_time_step_bound(c);
     FAIL() << "accepted a speed of 1e300 m/s";
@@ -214,7 +214,7 @@ TEST(CaseLimit, UnphysicalSpeedIsAnErrorNamingTheParticle) {
 TEST(BlowUp, NonFiniteTemperatureNamesTheParticles) {
   Case c = load_case(BONDEM_CASES_DIR "/laser_sintering_ci.yaml");
   c.laser.reset();
-  c.particles[3].temperature = std::numeric_limits<double>::infinity();
+  c.particles.edit(3).temperature = std::numeric_limits<double>::infinity();
   Scene scene = build_scene(c);
   Stepper stepper(scene);
   try {

@@ -4,6 +4,7 @@
 #include <numbers>
 #include <numeric>
 #include <stdexcept>
+#include <utility>
 #include <variant>
 
 #include "solver/engine/mesh_candidates.hpp"
@@ -73,14 +74,47 @@ double cohesion_range(const std::vector<PairCoefficients>& table, double max_rad
 
 }  // namespace
 
-std::vector<std::int64_t> particle_ids(const Case& description) {
-  const std::vector<ParticleSpec>& specs = description.particles;
-  std::int64_t next_id = 0;
-  for (const ParticleSpec& spec : specs) next_id = std::max(next_id, spec.id + 1);
-  std::vector<std::int64_t> ids(specs.size());
-  for (std::size_t i = 0; i < specs.size(); ++i)
-    ids[i] = specs[i].id >= 0 ? specs[i].id : next_id++;
+namespace {
+
+/// The id after the largest id given in @p description's list (0 when none is) and how many
+/// particles have none: those take the ids from there on, in list order.
+std::pair<std::int64_t, std::int64_t> free_ids(const Case& description) {
+  std::int64_t first_free = 0;
+  std::int64_t unassigned = 0;
+  for (const ParticleSpec& spec : description.particles) {
+    first_free = std::max(first_free, spec.id + 1);
+    unassigned += spec.id < 0 ? 1 : 0;
+  }
+  return {first_free, unassigned};
+}
+
+}  // namespace
+
+std::vector<std::int64_t> particle_ids(const Case& description,
+                                       const std::vector<std::uint32_t>& chosen) {
+  // One walk through the list in index order, counting the particles without an id.
+  std::vector<std::uint32_t> by_index(chosen.size());
+  std::iota(by_index.begin(), by_index.end(), 0U);
+  if (!std::is_sorted(chosen.begin(), chosen.end())) {
+    std::sort(by_index.begin(), by_index.end(),
+              [&](std::uint32_t a, std::uint32_t b) { return chosen[a] < chosen[b]; });
+  }
+  std::int64_t next_free = free_ids(description).first;
+  std::vector<std::int64_t> ids(chosen.size());
+  std::size_t k = 0;
+  for (std::size_t i = 0; i < description.particles.size() && k < by_index.size(); ++i) {
+    const std::int64_t id = description.particles[i].id;
+    for (; k < by_index.size() && chosen[by_index[k]] == i; ++k) {
+      ids[by_index[k]] = id >= 0 ? id : next_free;
+    }
+    if (id < 0) ++next_free;
+  }
   return ids;
+}
+
+std::int64_t next_particle_id(const Case& description) {
+  const auto [first_free, unassigned] = free_ids(description);
+  return first_free + unassigned;
 }
 
 Scene build_scene(const Case& description) {
@@ -148,15 +182,15 @@ Scene build_scene(const Case& description, const std::vector<std::uint32_t>& cho
   scene.particles.set_wall_count(slots);
   // Every array sized once and filled on every thread: adding 10^6 particles one at a time, each
   // page cleared by the kernel on one thread, was a tenth of the set-up of a 10^6 lattice.
-  const std::vector<ParticleSpec>& specs = description.particles;
+  const ParticleList& specs = description.particles;
   const std::size_t n = chosen.size();
   Particles& p = scene.particles;
   p.assign_zeros(n);
-  const std::vector<std::int64_t> ids = particle_ids(description);
-  for (std::size_t i = 0; i < n; ++i) p.id[i] = ids[chosen[i]];
+  const std::vector<std::int64_t> ids = particle_ids(description, chosen);
+  for (std::size_t i = 0; i < n; ++i) p.id[i] = ids[i];
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles)
   for (std::size_t i = 0; i < n; ++i) {
-    const ParticleSpec& spec = specs[chosen[i]];
+    const ParticleSpec spec = specs[chosen[i]];
     const double density = description.materials[static_cast<std::size_t>(spec.material)].density;
     p.material[i] = spec.material;
     p.radius[i] = spec.radius;

@@ -71,9 +71,13 @@ struct Scene {
   }
 };
 
-/// The ids build_scene() gives the case's particles, by list position: an initial state's keep
-/// theirs, the others take the next free ones in order.
-std::vector<std::int64_t> particle_ids(const Case& description);
+/// The ids build_scene() gives the case's particles @p chosen (indices into its list), in the
+/// order of @p chosen: an initial state's keep theirs, the others take the next free ones in list
+/// order. One walk through the list; memory for the chosen ones only.
+std::vector<std::int64_t> particle_ids(const Case& description,
+                                       const std::vector<std::uint32_t>& chosen);
+/// The id after the largest that build_scene() gives (a stream's first particle takes it).
+std::int64_t next_particle_id(const Case& description);
 
 /// Build the scene of a validated case; particle ids are particle_ids().
 Scene build_scene(const Case& description);

@@ -20,8 +20,8 @@ CollisionResult collide(const Case& description, double velocity,
   }
   Case setup = description;
   setup.gravity.setZero();
-  ParticleSpec& first = setup.particles[0];
-  ParticleSpec& second = setup.particles[1];
+  ParticleSpec& first = setup.particles.edit(0);
+  ParticleSpec& second = setup.particles.edit(1);
   Eigen::Vector3d normal = second.position - first.position;
   normal = normal.norm() > 0.0 ? normal.normalized() : Eigen::Vector3d::UnitX();
   second.position = first.position + (first.radius + second.radius) * normal;

@@ -20,6 +20,7 @@
 #include "solver/models/bond_law.hpp"
 #include "solver/models/normal_laws.hpp"
 #include "solver/models/pair.hpp"
+#include "solver/setup/particle_list.hpp"
 #include "solver/setup/radius_distribution.hpp"
 
 namespace bondem {
@@ -94,18 +95,6 @@ struct ThermalModel {
   bool radiation = false;  ///< grey-body radiation to ambient with each material's emissivity
 };
 
-/// One explicitly listed particle.
-struct ParticleSpec {
-  int material = 0;  ///< index into Case::materials
-  double radius = 0.0;
-  Eigen::Vector3d position = Eigen::Vector3d::Zero();
-  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
-  double temperature = 293.15;  ///< [K]; the reader fills in the thermal initial temperature
-  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();  ///< [rad/s]
-  /// Stable id; -1: the next free one (build_scene). Particles of an initial state keep theirs.
-  std::int64_t id = -1;
-};
-
 /// An `insert:` entry of type `stream`: particles added during the run at a rate, each where it
 /// overlaps no particle (Stepper; solver/engine/particle_stream.hpp).
 struct StreamInsertion {
@@ -149,7 +138,7 @@ struct Case {
   double time_step = 0.0;  ///< [s]
   double end_time = 0.0;   ///< [s]
   Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
-  std::vector<ParticleSpec> particles;   ///< explicit ones first, then each insertion in order
+  ParticleList particles;  ///< explicit ones first, then each insertion in order
   std::vector<StreamInsertion> streams;  ///< insertions during the run, in case-file order
   /// The pair state (springs, bonds) of an initial state taken from a checkpoint, by particle ids.
   std::vector<SlipRecord> initial_pairs;

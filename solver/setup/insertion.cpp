@@ -262,8 +262,7 @@ std::array<double, 3> lattice_counts(const Box& region, double spacing, double r
   return n;
 }
 
-std::vector<ParticleSpec> insert_lattice(const Box& region, double spacing, double radius,
-                                         int material) {
+LatticeBlock lattice_block(const Box& region, double spacing, double radius, int material) {
   const std::array<double, 3> counts = lattice_counts(region, spacing, radius);
   if (material < 0) throw std::invalid_argument("lattice: material index must be >= 0");
   const double total = counts[0] * counts[1] * counts[2];
@@ -274,23 +273,21 @@ std::vector<ParticleSpec> insert_lattice(const Box& region, double spacing, doub
       << " per insertion; raise the spacing or shrink the region";
     throw std::invalid_argument(m.str());
   }
-  std::array<std::size_t, 3> n{};
-  for (std::size_t a = 0; a < 3; ++a) n[a] = static_cast<std::size_t>(counts[a]);
+  LatticeBlock block;
+  block.origin = region.min + Eigen::Vector3d::Constant(radius);
+  block.spacing = spacing;
+  block.radius = radius;
+  block.material = material;
+  for (std::size_t a = 0; a < 3; ++a) block.counts[a] = static_cast<std::size_t>(counts[a]);
+  return block;
+}
+
+std::vector<ParticleSpec> insert_lattice(const Box& region, double spacing, double radius,
+                                         int material) {
+  const LatticeBlock block = lattice_block(region, spacing, radius, material);
   std::vector<ParticleSpec> out;
-  out.reserve(n[0] * n[1] * n[2]);
-  for (std::size_t k = 0; k < n[2]; ++k) {
-    for (std::size_t j = 0; j < n[1]; ++j) {
-      for (std::size_t i = 0; i < n[0]; ++i) {
-        ParticleSpec p;
-        p.material = material;
-        p.radius = radius;
-        p.position = region.min + Eigen::Vector3d::Constant(radius) +
-                     spacing * Eigen::Vector3d(static_cast<double>(i), static_cast<double>(j),
-                                               static_cast<double>(k));
-        out.push_back(p);
-      }
-    }
-  }
+  out.reserve(block.size());
+  for (std::size_t k = 0; k < block.size(); ++k) out.push_back(block.at(k));
   return out;
 }
 
@@ -384,7 +381,7 @@ struct FillGrids {
 
 /// The grids of a fill of @p new_count spheres up to @p r_max, holding the existing spheres that
 /// could touch one of them.
-FillGrids index_existing(const Box& region, const std::vector<ParticleSpec>& existing, double r_max,
+FillGrids index_existing(const Box& region, const ParticleList& existing, double r_max,
                          std::size_t new_count) {
   // Existing spheres that could touch a new one: center closer to the region than r + r_max.
   std::vector<Sphere> spheres;  // existing ones only; placed ones live in the grid
@@ -431,7 +428,7 @@ FillGrids index_existing(const Box& region, const std::vector<ParticleSpec>& exi
 }
 
 std::vector<ParticleSpec> insert_random_fill(const FillRequest& request,
-                                             const std::vector<ParticleSpec>& existing) {
+                                             const ParticleList& existing) {
   validate_fill(request);
   const Box& region = request.region;
   const double region_volume = region.volume();
@@ -525,7 +522,7 @@ struct SpecGrid {
 
 /// Bin @p particles (count -> scan -> fill); coordinates are clamped into the grid, which keeps
 /// the 27-cell property true for any particle.
-SpecGrid bin_specs(const std::vector<ParticleSpec>& particles, const Domain* domain) {
+SpecGrid bin_specs(const ParticleList& particles, const Domain* domain) {
   const std::size_t n = particles.size();
   SpecGrid grid;
   double r_max = 0.0;
@@ -558,7 +555,7 @@ SpecGrid bin_specs(const std::vector<ParticleSpec>& particles, const Domain* dom
   grid.cell_of.assign(n, 0);
   grid.begin.assign(grid.cells[0] * grid.cells[1] * grid.cells[2] + 1, 0);
   for (std::size_t i = 0; i < n; ++i) {
-    const Eigen::Vector3d& x = particles[i].position;
+    const Eigen::Vector3d x = particles[i].position;
     grid.cell_of[i] =
         (cell_coordinate(2, x.z()) * grid.cells[1] + cell_coordinate(1, x.y())) * grid.cells[0] +
         cell_coordinate(0, x.x());
@@ -597,10 +594,10 @@ void neighbor_cells(const SpecGrid& grid, const std::array<std::size_t, 3>& home
 
 /// The overlap of particle @p i with an earlier particle deeper than @p max_fraction of the
 /// smaller radius, with the smallest earlier index, or none.
-std::optional<InitialOverlap> overlap_with_earlier(const std::vector<ParticleSpec>& particles,
+std::optional<InitialOverlap> overlap_with_earlier(const ParticleList& particles,
                                                    const SpecGrid& grid, std::size_t i,
                                                    double max_fraction) {
-  const ParticleSpec& p = particles[i];
+  const ParticleSpec p = particles[i];
   std::array<std::array<std::size_t, 3>, 3> visit{};
   std::array<std::size_t, 3> visits{};
   neighbor_cells(grid, grid.home(i), visit, visits);
@@ -614,7 +611,8 @@ std::optional<InitialOverlap> overlap_with_earlier(const std::vector<ParticleSpe
           const std::size_t j = grid.items[k];
           if (j >= i) break;  // index order within a cell: only earlier particles
           if (found && j >= found->earlier) break;
-          Eigen::Vector3d d = particles[j].position - p.position;
+          const ParticleSpec q = particles[j];
+          Eigen::Vector3d d = q.position - p.position;
           bool wrapped = false;
           for (int a = 0; a < 3; ++a) {
             // Well inside half a period the image is the particle itself: the shift below would
@@ -624,8 +622,8 @@ std::optional<InitialOverlap> overlap_with_earlier(const std::vector<ParticleSpe
             wrapped = wrapped || shift != 0.0;
             d[a] -= shift;
           }
-          const double smaller = std::min(p.radius, particles[j].radius);
-          const double overlap = p.radius + particles[j].radius - d.norm();
+          const double smaller = std::min(p.radius, q.radius);
+          const double overlap = p.radius + q.radius - d.norm();
           if (overlap > max_fraction * smaller) {
             found = InitialOverlap{i, j, overlap / smaller, wrapped};
             break;
@@ -637,12 +635,41 @@ std::optional<InitialOverlap> overlap_with_earlier(const std::vector<ParticleSpe
   return found;
 }
 
+/// find_initial_overlap() of a list that is one lattice block, without a grid: the nearest
+/// spheres are the neighbours one spacing apart and, along a periodic axis, the first sphere of a
+/// row and the image of its last.
+std::optional<InitialOverlap> lattice_overlap(const LatticeBlock& block, const Domain* domain,
+                                              double max_fraction) {
+  const double limit = max_fraction * block.radius;
+  std::optional<InitialOverlap> found;
+  const auto consider = [&](std::size_t later, std::size_t earlier, double distance, bool wrapped) {
+    const double overlap = 2.0 * block.radius - distance;
+    if (!(overlap > limit)) return;
+    if (!found || later < found->later || (later == found->later && earlier < found->earlier)) {
+      found = InitialOverlap{later, earlier, overlap / block.radius, wrapped};
+    }
+  };
+  const std::size_t stride[3] = {1, block.counts[0], block.counts[0] * block.counts[1]};
+  for (int a = 0; a < 3; ++a) {
+    if (block.counts[a] > 1) consider(stride[a], 0, block.spacing, false);
+    if (domain == nullptr || !domain->periodic[a]) continue;
+    const double period = domain->max[a] - domain->min[a];
+    const double span = block.last_centre()[a] - block.origin[a];
+    if (block.counts[a] > 1) consider((block.counts[a] - 1) * stride[a], 0, period - span, true);
+  }
+  return found;
+}
+
 }  // namespace
 
-std::optional<InitialOverlap> find_initial_overlap(const std::vector<ParticleSpec>& particles,
+std::optional<InitialOverlap> find_initial_overlap(const ParticleList& particles,
                                                    const Domain* domain, double max_fraction) {
   const std::size_t n = particles.size();
   if (n < 2) return std::nullopt;
+  if (particles.stored_count() == 0) {
+    const std::vector<LatticeBlock> blocks = particles.lattice_blocks();
+    if (blocks.size() == 1) return lattice_overlap(blocks.front(), domain, max_fraction);
+  }
   const SpecGrid grid = bin_specs(particles, domain);
   // In chunks of particles on every thread: the first chunk with an overlap holds the answer, and
   // every chunk before it is searched whole, so it is the serial one for any thread count (a

@@ -78,6 +78,11 @@ std::array<double, 3> lattice_counts(const Box& region, double spacing, double r
 std::vector<ParticleSpec> insert_lattice(const Box& region, double spacing, double radius,
                                          int material);
 
+/// The lattice of insert_lattice() as a block that stores no particle (solver/setup/
+/// particle_list.hpp): its sphere k is insert_lattice()'s k-th, bit for bit. Throws as
+/// insert_lattice() does.
+LatticeBlock lattice_block(const Box& region, double spacing, double radius, int material);
+
 /// Random sequential addition cannot go beyond about 0.30-0.38 solid fraction (0.38 monodisperse
 /// in bulk, lower next to walls): targets above this are refused rather than attempted.
 inline constexpr double kMaxRandomFillSolidFraction = 0.40;
@@ -113,7 +118,7 @@ struct FillRequest {
 /// exceed kMaxRandomFillSolidFraction is refused before any radius is drawn, and drawing stops
 /// as soon as the drawn volume passes it, so an impossible count costs neither time nor memory.
 std::vector<ParticleSpec> insert_random_fill(const FillRequest& request,
-                                             const std::vector<ParticleSpec>& existing = {});
+                                             const ParticleList& existing = {});
 
 /// Two initial particles that overlap by more than a run allows.
 struct InitialOverlap {
@@ -127,7 +132,7 @@ struct InitialOverlap {
 /// run stop at its first step) with the smallest `later`, then the smallest `earlier`, or none.
 /// With a @p domain, its periodic axes wrap (nearest image; exact for axes longer than four
 /// radii). A uniform cell grid of about one cell per particle keeps it O(N).
-std::optional<InitialOverlap> find_initial_overlap(const std::vector<ParticleSpec>& particles,
+std::optional<InitialOverlap> find_initial_overlap(const ParticleList& particles,
                                                    const Domain* domain, double max_fraction);
 
 }  // namespace bondem
