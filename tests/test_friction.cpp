@@ -74,7 +74,8 @@ TEST(Rolling, SphereDeceleratesAsTheRollingModelPredicts) {
   Case c = sphere_on_floor(0.0, 0.5, mu_r);
   const double v0 = 0.05;
   c.particles.edit(0).velocity = Eigen::Vector3d(v0, 0.0, 0.0);
-  c.particles.edit(0).position.z() = kRadius - 1.0e-7;  // about the static overlap: no bouncing start
+  c.particles.edit(0).position.z() =
+      kRadius - 1.0e-7;  // about the static overlap: no bouncing start
   Scene scene = build_scene(c);
   scene.particles.wy[0] = v0 / kRadius;  // rolling without slipping toward +x
   Stepper stepper(scene);

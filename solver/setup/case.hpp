@@ -138,7 +138,7 @@ struct Case {
   double time_step = 0.0;  ///< [s]
   double end_time = 0.0;   ///< [s]
   Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
-  ParticleList particles;  ///< explicit ones first, then each insertion in order
+  ParticleList particles;                ///< explicit ones first, then each insertion in order
   std::vector<StreamInsertion> streams;  ///< insertions during the run, in case-file order
   /// The pair state (springs, bonds) of an initial state taken from a checkpoint, by particle ids.
   std::vector<SlipRecord> initial_pairs;
