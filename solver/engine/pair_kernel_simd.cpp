@@ -54,7 +54,9 @@ constexpr std::uint32_t kLaneBlock = 64;
 struct PairBlock {
   static constexpr int kConstants = 12;
   // The pair's kinematics, gathered by a scalar loop (cheaper than vector gathers here).
-  std::uint32_t first[kLaneBlock], second[kLaneBlock];              ///< i and j
+  /// i, with room for a vector store past the block (LanePass fills it by rows); j is read from
+  /// the list in place.
+  std::uint32_t first[kLaneBlock + HWY_MAX_BYTES / sizeof(std::uint32_t)];
   HWY_ALIGN double dx[kLaneBlock], dy[kLaneBlock], dz[kLaneBlock];  ///< x_j - x_i (image of j)
   HWY_ALIGN double ri[kLaneBlock], rj[kLaneBlock], mi[kLaneBlock], mj[kLaneBlock];
   HWY_ALIGN double dvx[kLaneBlock], dvy[kLaneBlock], dvz[kLaneBlock];  ///< v_j - v_i
@@ -89,14 +91,15 @@ inline void put_constants(PairBlock& b, std::uint32_t s, const LanePairConstants
   for (int v = 0; v < PairBlock::kConstants; ++v) b.constant[v][s] = values[v];
 }
 
-/// Gathers the kinematics of the block's @p count pairs, i = b.first[s], j = b.second[s], into
+/// Gathers the kinematics of the block's @p count pairs, i = b.first[s] and j the list's second
+/// particle of pair first_k + s, into
 /// lane order: a few short loops, each with few streams, keep the pointers in registers.
 template <bool kFriction>
-HWY_INLINE void pack_block(const detail::LanePassArgs& a, PairBlock& b, std::uint32_t first_k,
-                           std::uint32_t count) {
+HWY_NOINLINE void pack_block(const detail::LanePassArgs& a, PairBlock& b, std::uint32_t first_k,
+                             std::uint32_t count) {
   const Particles& p = *a.particles;
   const std::uint32_t* HWY_RESTRICT first = b.first;
-  const std::uint32_t* HWY_RESTRICT second = b.second;
+  const std::uint32_t* HWY_RESTRICT second = a.list->seconds() + first_k;
   {
     const double* HWY_RESTRICT x = p.x.data();
     const double* HWY_RESTRICT y = p.y.data();
@@ -108,12 +111,17 @@ HWY_INLINE void pack_block(const detail::LanePassArgs& a, PairBlock& b, std::uin
     }
     // Periodic images are rare: most pairs add no shift.
     const std::uint8_t* HWY_RESTRICT image = a.list->images() + first_k;
+    // In locals: a store into the block could otherwise alias the argument's pointers, which
+    // would be read again for every pair.
+    const double* HWY_RESTRICT shift_x = a.shift_x;
+    const double* HWY_RESTRICT shift_y = a.shift_y;
+    const double* HWY_RESTRICT shift_z = a.shift_z;
     for (std::uint32_t s = 0; s < count; ++s) {
       const std::uint8_t code = image[s];
       if (code == 0) continue;
-      b.dx[s] += a.shift_x[code];
-      b.dy[s] += a.shift_y[code];
-      b.dz[s] += a.shift_z[code];
+      b.dx[s] += shift_x[code];
+      b.dy[s] += shift_y[code];
+      b.dz[s] += shift_z[code];
     }
   }
   {
@@ -391,6 +399,7 @@ template <bool kFriction>
 ContactSummary LanePass(const detail::LanePassArgs& a, std::size_t first_row,
                         std::size_t last_row) {
   const hn::ScalableTag<double> d;
+  const hn::ScalableTag<std::uint32_t> du;
   const std::uint32_t lanes = static_cast<std::uint32_t>(hn::Lanes(d));
   const StaggeredVector<std::uint32_t>& row_begin = a.list->row_begins();
   PairForces& out = *a.out;
@@ -401,21 +410,42 @@ ContactSummary LanePass(const detail::LanePassArgs& a, std::size_t first_row,
   const std::uint32_t pairs_end = row_begin[last_row];
   for (std::uint32_t block = row_begin[first_row]; block < pairs_end; block += kLaneBlock) {
     const std::uint32_t count = std::min(pairs_end - block, kLaneBlock);
-    const std::uint32_t* HWY_RESTRICT second = a.list->seconds() + block;
-    for (std::uint32_t s = 0; s < count; ++s) {
-      const std::uint32_t k = block + s;
-      while (row_begin[row + 1] <= k) ++row;
-      b.first[s] = static_cast<std::uint32_t>(row);
-      b.second[s] = second[s];
+    // Each row's index into the slots of its pairs, a vector of copies at a time: the next row's
+    // store overwrites what runs past the row's end. A row usually fits one vector, so there is
+    // no branch per pair on where its row ends.
+    while (row_begin[row + 1] <= block) ++row;
+    for (std::uint32_t s = 0;;) {
+      const std::uint32_t row_end = std::min(row_begin[row + 1] - block, count);
+      const auto copies = hn::Set(du, static_cast<std::uint32_t>(row));
+      for (std::uint32_t t = s; t < row_end; t += static_cast<std::uint32_t>(hn::Lanes(du))) {
+        hn::StoreU(copies, du, b.first + t);
+      }
+      s = row_end;
+      if (s == count) break;
+      ++row;
     }
     pack_block<kFriction>(a, b, block, count);
     pad_block(b, count, (count + lanes - 1) / lanes * lanes);
     evaluate_block<kFriction>(a, b, block, count, tally);
+    if (a.counted == nullptr) {  // every pair counted: a loop without branches
+      std::uint8_t* HWY_RESTRICT flags = out.bonded.data() + block;
+      std::size_t formed = 0, broken = 0;
+      for (std::uint32_t s = 0; s < count; ++s) {
+        const std::uint8_t now = b.bonded[s] > 0.0 ? 1 : 0;
+        const std::uint8_t before = flags[s];
+        flags[s] = now;
+        formed += now > before ? 1 : 0;
+        broken += now < before ? 1 : 0;
+      }
+      summary.bonds_formed += formed;
+      summary.bonds_broken += broken;
+      continue;
+    }
     for (std::uint32_t s = 0; s < count; ++s) {
       const std::uint8_t now = b.bonded[s] > 0.0 ? 1 : 0;
       const std::uint8_t before = out.bonded[block + s];
       out.bonded[block + s] = now;
-      if (a.counted != nullptr && a.counted[b.first[s]] == 0) {
+      if (a.counted[b.first[s]] == 0) {
         // Another rank counts this pair: take back what the lanes tallied of it.
         tally.contacts -= b.overlap[s] > 0.0 ? 1 : 0;
         tally.bonds -= now;
