@@ -308,6 +308,46 @@ TEST(PartialCheckpoint, KeepsTheMarkedRowsAndTheirPairs) {
   EXPECT_EQ(head.particles.size(), 0u);
 }
 
+// A checkpoint longer than a block of rows (4 096) is read a block at a time, and a block without
+// a kept row is skipped unread: the rows kept from the first and third blocks, none from the
+// second, and the last row of the file, hold what the whole read holds.
+TEST(PartialCheckpoint, SkipsTheBlocksWithoutKeptRows) {
+  const fs::path directory = testing::fresh_directory("run_io_partial_checkpoint_blocks");
+  const std::string text = R"(materials:
+  powder: {density: 2500, youngs_modulus: 1.0e8, poisson_ratio: 0.3}
+contact: {damping_ratio: 0.3, friction: 0.4}
+time: {step: 2.0e-7, end: 4.0e-7}
+domain: {min: [0, 0, 0], max: [0.0242, 0.0242, 0.0242], periodic: [true, true, false]}
+gravity: [0, 0, -9.81]
+insert:
+  - {type: lattice, region: {min: [0, 0, 0], max: [0.0242, 0.0242, 0.0242]}, spacing: 0.0011, radius: 0.0005, material: powder, velocity: [0.01, 0, -0.02]}
+output: {directory: out}
+)";
+  testing::quiet_run(parse_case(text, "blocks.yaml"), directory);
+  const std::string path = (directory / "checkpoint.bin").string();
+  const Checkpoint whole = read_checkpoint(path);
+  const Particles& all = whole.particles;
+  ASSERT_GT(all.size(), 2u * 4096u);  // 22^3 = 10 648 rows: three blocks
+  std::vector<std::uint64_t> rows{0, 1, 4095, 8192, 8200, all.size() - 1};
+  for (const bool positions_only : {false, true}) {
+    const Checkpoint part =
+        read_checkpoint(path, CheckpointScope{.rows = &rows, .positions_only = positions_only});
+    EXPECT_EQ(part.file_particles, all.size());
+    ASSERT_EQ(part.particles.size(), rows.size());
+    for (std::size_t at = 0; at < rows.size(); ++at) {
+      const std::size_t k = rows[at];
+      EXPECT_EQ(part.particles.id[at], all.id[k]) << k;
+      EXPECT_EQ(part.particles.x[at], all.x[k]) << k;
+      EXPECT_EQ(part.particles.z[at], all.z[k]) << k;
+      EXPECT_EQ(part.particles.radius[at], all.radius[k]) << k;
+      if (positions_only) continue;
+      EXPECT_EQ(part.particles.vz[at], all.vz[k]) << k;
+      EXPECT_EQ(part.particles.wy[at], all.wy[k]) << k;
+      EXPECT_EQ(part.stepper.list.x0[at], whole.stepper.list.x0[k]) << k;
+    }
+  }
+}
+
 TEST(Restart, OnlyEndTimeAndOutputsMayChange) {
   const fs::path directory = testing::fresh_directory("run_io_tool_case");
   testing::quiet_run(parse_case(kToolCase, "tool.yaml"), directory);
