@@ -36,6 +36,8 @@ struct LanePassArgs {
   const double* shift_z;
   /// Per particle, 1 where the pairs in its row are counted in the summary; null: all are.
   const std::uint8_t* counted;
+  /// Whether each block prefetches the next block's j particles (kPrefetchParticles).
+  bool prefetch;
 };
 }  // namespace bondem::detail
 #endif
@@ -424,6 +426,26 @@ ContactSummary LanePass(const detail::LanePassArgs& a, std::size_t first_row,
       if (s == count) break;
       ++row;
     }
+    if (a.prefetch) {
+      // The next block's j particles, while this one is gathered and evaluated.
+      const std::uint32_t next = block + kLaneBlock;
+      const std::uint32_t next_count =
+          next < pairs_end ? std::min(pairs_end - next, kLaneBlock) : 0;
+      const std::uint32_t* js = a.list->seconds() + next;
+      const Particles& p = *a.particles;
+      for (std::uint32_t s = 0; s < next_count; ++s) {
+        const std::uint32_t j = js[s];
+        for (const double* base : {p.x.data(), p.y.data(), p.z.data(), p.vx.data(), p.vy.data(),
+                                   p.vz.data(), p.radius.data(), p.mass.data()}) {
+          __builtin_prefetch(base + j);
+        }
+        if constexpr (kFriction) {
+          __builtin_prefetch(p.wx.data() + j);
+          __builtin_prefetch(p.wy.data() + j);
+          __builtin_prefetch(p.wz.data() + j);
+        }
+      }
+    }
     pack_block<kFriction>(a, b, block, count);
     pad_block(b, count, (count + lanes - 1) / lanes * lanes);
     evaluate_block<kFriction>(a, b, block, count, tally);
@@ -587,6 +609,13 @@ std::vector<LanePairConstants> lane_pair_constants(const Scene& scene) {
   return constants;
 }
 
+/// Particles from which pass 1 prefetches the next block's j particles. Out of cache, the gather
+/// reads 11 arrays at three j streams each, more streams than the hardware prefetchers follow:
+/// prefetching made the 998 400 peer lattice 6 % faster (three alternating runs) and friction pass
+/// 1 at 64 000 particles 18 % faster (bench_kernel); in cache it is pure overhead (the 20 800
+/// lattice 5 % slower, pass 1 at 8 000 particles 10-14 %).
+constexpr std::size_t kPrefetchParticles = 32768;
+
 ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const NeighborList& list,
                                 std::span<const LanePairConstants> constants,
                                 const BondingCriterion& criterion_met, PairForces& out,
@@ -618,7 +647,8 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
                                   shift_x,
                                   shift_y,
                                   shift_z,
-                                  counted};
+                                  counted,
+                                  p.size() >= kPrefetchParticles};
   const auto pass = scene.friction ? HWY_DYNAMIC_DISPATCH(LanePassWithFriction)
                                    : HWY_DYNAMIC_DISPATCH(LanePassWithoutFriction);
   const std::size_t n = p.size();
