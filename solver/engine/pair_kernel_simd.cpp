@@ -426,11 +426,9 @@ ContactSummary LanePass(const detail::LanePassArgs& a, std::size_t first_row,
       if (s == count) break;
       ++row;
     }
-    if (a.prefetch) {
+    if (const std::uint32_t next = block + kLaneBlock; a.prefetch && next < pairs_end) {
       // The next block's j particles, while this one is gathered and evaluated.
-      const std::uint32_t next = block + kLaneBlock;
-      const std::uint32_t next_count =
-          next < pairs_end ? std::min(pairs_end - next, kLaneBlock) : 0;
+      const std::uint32_t next_count = std::min(pairs_end - next, kLaneBlock);
       const std::uint32_t* js = a.list->seconds() + next;
       const Particles& p = *a.particles;
       for (std::uint32_t s = 0; s < next_count; ++s) {
