@@ -86,6 +86,9 @@ TEST(ParticleList, KeepsTheOrderOfStoredRunsAndBlocks) {
   EXPECT_EQ(list.size(), expected.size() - 1);
   list.clear();
   EXPECT_TRUE(list.empty());
+  list.expanded().push_back(explicit_particle(5.0, 9));  // filled through the vector
+  ASSERT_EQ(list.size(), 1U);
+  EXPECT_EQ(list[0].id, 9);
 }
 
 TEST(ParticleList, IdsOfChosenParticlesAreThoseOfTheWholeList) {

@@ -59,7 +59,11 @@ void ParticleList::append(const LatticeBlock& block) {
 }
 
 std::vector<ParticleSpec>& ParticleList::expanded() {
-  if (in_blocks_ == 0) return stored_;
+  if (in_blocks_ == 0) {
+    // One stored run from the start, also for a list that the caller fills through the vector.
+    if (segments_.empty()) segments_.assign(1, Segment{});
+    return stored_;
+  }
   std::vector<ParticleSpec> all;
   all.reserve(size());
   for (std::size_t i = 0; i < size(); ++i) all.push_back((*this)[i]);
