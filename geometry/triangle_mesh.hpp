@@ -193,7 +193,7 @@ struct BoxedTriangle {
 
 /// The same among @p triangles only (any order, repeats allowed): equal to mesh_contacts whenever
 /// @p triangles holds every triangle nearer to @p centre than @p radius, e.g. a list gathered
-/// with a larger radius a few steps before (solver/engine/mesh_candidates.hpp).
+/// with a larger radius a few steps before (solver/engine/boundary_candidates.hpp).
 std::span<const MeshContact> mesh_contacts_among(const TriangleMesh& mesh,
                                                  std::span<const BoxedTriangle> triangles,
                                                  const Eigen::Vector3d& centre, double radius,

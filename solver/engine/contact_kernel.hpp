@@ -25,8 +25,8 @@
 
 #include "geometry/boundary.hpp"
 #include "geometry/triangle_mesh.hpp"
+#include "solver/engine/boundary_candidates.hpp"
 #include "solver/engine/exact_sum.hpp"
-#include "solver/engine/mesh_candidates.hpp"
 #include "solver/engine/neighbor_list.hpp"
 #include "solver/engine/scene.hpp"
 #include "solver/engine/staggered_vector.hpp"
@@ -479,7 +479,7 @@ BoundaryContact analytic_boundary_contact(Particles& p, const Scene& scene, cons
 /// slots left without a contact are released. The search runs among the particle's @p candidates.
 template <bool kFriction, bool kModels, class Law, class Add>
 void mesh_boundary_contacts(Particles& p, const Scene& scene, const Law& law, std::size_t b,
-                            const BoundaryFrame& frame, const MeshCandidates& candidates,
+                            const BoundaryFrame& frame, const BoundaryCandidates& candidates,
                             std::size_t i, MeshQueryBuffer& buffer, Add&& add) {
   const Boundary& boundary = scene.boundaries[b];
   const MeshSurface& surface = *std::get<MeshShape>(boundary.shape).surface;
@@ -618,12 +618,15 @@ inline constexpr std::size_t kBoundaryLoadValues = 6;
 
 /// Adds every boundary's contacts with particle i to @p load and to the block's boundary loads
 /// @p block_load (kBoundaryLoadValues per boundary); boundaries held at a temperature also
-/// conduct heat. @p frames: every boundary's frame at its current pose.
+/// conduct heat. @p frames: every boundary's frame at its current pose. @p next_near: per
+/// boundary, the place in its candidates' near list of the first particle not before i (the
+/// particles come in ascending order, and each one found moves its boundary's place on).
 template <bool kFriction, bool kModels, class Law>
 [[gnu::always_inline]] inline void gather_boundaries(
     Particles& p, const Scene& scene, const Law& law, const std::vector<BoundaryFrame>& frames,
-    const std::vector<MeshCandidates>& candidates, std::size_t i, bool thermal,
-    MeshQueryBuffer& buffer, ExactSum* thread_load, ParticleLoad& load, BoundaryTally& tally) {
+    const std::vector<BoundaryCandidates>& candidates, std::size_t i, bool thermal,
+    MeshQueryBuffer& buffer, std::size_t* next_near, ExactSum* thread_load, ParticleLoad& load,
+    BoundaryTally& tally) {
   for (std::size_t b = 0; b < scene.boundaries.size(); ++b) {
     const Boundary& boundary = scene.boundaries[b];
     ExactSum* boundary_load = thread_load + b * kBoundaryLoadValues;
@@ -652,6 +655,11 @@ template <bool kFriction, bool kModels, class Law>
       mesh_boundary_contacts<kFriction, kModels>(p, scene, law, b, frames[b], candidates[b], i,
                                                  buffer, add);
     } else {
+      // A particle out of the boundary's reach has no contact with it and no history to release
+      // (boundary_candidates.hpp).
+      const std::vector<std::uint32_t>& near = candidates[b].near;
+      if (next_near[b] == near.size() || near[next_near[b]] != i) continue;
+      ++next_near[b];
       const BoundaryContact contact =
           analytic_boundary_contact<kFriction, kModels>(p, scene, law, b, frames[b], i);
       if (contact.overlap > 0.0 || (kModels && contact.force != Eigen::Vector3d::Zero())) {
@@ -683,7 +691,7 @@ template <bool kFriction, bool kModels, class Law>
 /// add to the boundary loads and the boundary contacts; the largest overlaps take every particle.
 template <bool kFriction, bool kModels, class Law>
 ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborList& list,
-                             const std::vector<MeshCandidates>& mesh_candidates,
+                             const std::vector<BoundaryCandidates>& candidates,
                              const std::vector<BoundaryFrame>& frames, const Law& law,
                              const PairForces& pair_forces, std::vector<ExactSum>& wall_loads,
                              const std::uint8_t* counted = nullptr) {
@@ -709,15 +717,23 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
     BoundaryTally uncounted;  // of particles another rank counts: only its maxima are kept
     thread_local MeshQueryBuffer buffer;  // reused: mesh queries allocate only while it grows
     thread_local std::vector<ExactSum> uncounted_load;
+    thread_local std::vector<std::size_t> next_near;
     if (counted != nullptr) uncounted_load.resize(boundaries * kBoundaryLoadValues);
-    const std::size_t block_end = std::min(n, (block + 1) * kWallLoadBlock);
-    for (std::size_t i = block * kWallLoadBlock; i < block_end; ++i) {
+    const std::size_t block_begin = block * kWallLoadBlock;
+    const std::size_t block_end = std::min(n, block_begin + kWallLoadBlock);
+    next_near.resize(boundaries);
+    for (std::size_t b = 0; b < boundaries; ++b) {
+      const std::vector<std::uint32_t>& near = candidates[b].near;
+      next_near[b] = static_cast<std::size_t>(
+          std::lower_bound(near.begin(), near.end(), block_begin) - near.begin());
+    }
+    for (std::size_t i = block_begin; i < block_end; ++i) {
       ParticleLoad load{p.mass[i] * g, Eigen::Vector3d::Zero()};
       gather_pairs<kFriction>(p, list, pair_forces, i, thermal, rolling, load);
       const bool counts = counted == nullptr || counted[i] != 0;
-      gather_boundaries<kFriction, kModels>(p, scene, law, frames, mesh_candidates, i, thermal,
-                                            buffer, counts ? thread_load : uncounted_load.data(),
-                                            load, counts ? tally : uncounted);
+      gather_boundaries<kFriction, kModels>(
+          p, scene, law, frames, candidates, i, thermal, buffer, next_near.data(),
+          counts ? thread_load : uncounted_load.data(), load, counts ? tally : uncounted);
       if (thermal) {
         exchange_with_surroundings(p, scene, i, load);
         p.heat_rate[i] = load.heat;

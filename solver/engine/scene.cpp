@@ -7,7 +7,7 @@
 #include <utility>
 #include <variant>
 
-#include "solver/engine/mesh_candidates.hpp"
+#include "solver/engine/boundary_candidates.hpp"
 #include "solver/models/contact_laws.hpp"
 #include "solver/models/heat_law.hpp"
 #include "solver/setup/message_number.hpp"
@@ -170,10 +170,10 @@ Scene build_scene(const Case& description, const std::vector<std::uint32_t>& cho
     if (auto* mesh = std::get_if<MeshShape>(&boundary.shape)) {
       count = kMeshContactSlots;
       scene.particles.mesh_contacts = true;
-      // Cells as wide as a candidate query (mesh_candidates.hpp): it then meets at most
+      // Cells as wide as a candidate query (boundary_candidates.hpp): it then meets at most
       // 2 x 2 x 2 cells.
       const double cell =
-          2.0 * (max_radius + scene.contact_range + kMeshCandidateMargin * scene.skin);
+          2.0 * (max_radius + scene.contact_range + kBoundaryCandidateMargin * scene.skin);
       mesh->surface = make_mesh_surface(mesh->surface->mesh, cell, mesh->surface->file);
     }
     scene.slot_count.push_back(count);

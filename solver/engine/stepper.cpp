@@ -45,7 +45,7 @@ void Stepper::start() {
   // An initial state's pairs keep their springs and bonds; a fresh scene has none.
   carry_pairs(carried_from(scene_.initial_pairs));
   scene_.initial_pairs = std::vector<SlipRecord>{};
-  build_mesh_candidates(scene_, mesh_candidates_);
+  build_boundary_candidates(scene_, boundary_candidates_);
   compute_forces(std::numeric_limits<double>::quiet_NaN());
   bonds_formed_ = static_cast<std::int64_t>(contacts_.bonds_formed);
   streams_.assign(scene_.streams.size(), ParticleTally{});
@@ -83,8 +83,8 @@ Stepper::Stepper(Scene& scene, StepperState restored, CarriedPairs carried, Pair
     boundary.angular_velocity = saved[7];
   }
   // Gathered afresh: the lists only narrow the search, so where they were gathered does not
-  // change a result (mesh_candidates.hpp).
-  build_mesh_candidates(scene_, mesh_candidates_);
+  // change a result (boundary_candidates.hpp).
+  build_boundary_candidates(scene_, boundary_candidates_);
   contacts_ = restored.contacts;
   time_ = restored.time;
   step_count_ = restored.step;
@@ -116,7 +116,7 @@ ContactSummary Stepper::evaluate_forces(const Law& law) {
   boundary_frames_.clear();
   for (const Boundary& boundary : scene_.boundaries) boundary_frames_.push_back(frame_of(boundary));
   const ContactSummary walls =
-      gather_forces<kFriction, kModels>(scene_.particles, scene_, list_, mesh_candidates_,
+      gather_forces<kFriction, kModels>(scene_.particles, scene_, list_, boundary_candidates_,
                                         boundary_frames_, law, pair_forces_, wall_loads_, counted);
   pairs.wall_contacts = walls.wall_contacts;
   pairs.max_overlap = std::max(pairs.max_overlap, walls.max_overlap);
@@ -335,7 +335,7 @@ void Stepper::rebuild_list() {
   list_.build(scene_.particles, scene_.domain, list_reach(), reorder);
   mark_counted();  // the particles may have moved
   carry_pairs(std::move(carried));
-  build_mesh_candidates(scene_, mesh_candidates_);
+  build_boundary_candidates(scene_, boundary_candidates_);
 }
 
 double Stepper::drift(double dt) {
@@ -465,8 +465,8 @@ void Stepper::complete_step(bool rebuild) {
                         insert_from_streams(scene_.particles, time_ + dt) > 0;
   if (rebuild || inserted) {
     rebuild_list();
-  } else if (mesh_moved_half_skin(scene_, mesh_candidates_)) {
-    build_mesh_candidates(scene_, mesh_candidates_);
+  } else if (boundary_moved_half_skin(scene_, boundary_candidates_)) {
+    build_boundary_candidates(scene_, boundary_candidates_);
   }
   // The laser deposits at mid-step, so a beam on for T seconds delivers its power for T seconds
   // to within one step.

@@ -13,7 +13,7 @@
 
 #include "solver/engine/contact_kernel.hpp"
 #include "solver/engine/exact_sum.hpp"
-#include "solver/engine/mesh_candidates.hpp"
+#include "solver/engine/boundary_candidates.hpp"
 #include "solver/engine/neighbor_list.hpp"
 #include "solver/engine/pair_kernel_simd.hpp"
 #include "solver/engine/scene.hpp"
@@ -313,7 +313,7 @@ class Stepper {
   PairForces pair_forces_;
   PairHistory history_;
   std::vector<ExactSum> wall_loads_;             ///< per thread and boundary, last evaluation
-  std::vector<MeshCandidates> mesh_candidates_;  ///< per boundary; gathered with every list
+  std::vector<BoundaryCandidates> boundary_candidates_;  ///< per boundary; gathered with every list
   std::vector<BoundaryFrame> boundary_frames_;   ///< per boundary, at the last evaluation
   /// Per material pair, the SIMD pass's constants; empty where the run takes the scalar pass
   /// (simd_pass_applies).
