@@ -11,9 +11,9 @@
 #include <string>
 #include <vector>
 
+#include "solver/engine/boundary_candidates.hpp"
 #include "solver/engine/contact_kernel.hpp"
 #include "solver/engine/exact_sum.hpp"
-#include "solver/engine/boundary_candidates.hpp"
 #include "solver/engine/neighbor_list.hpp"
 #include "solver/engine/pair_kernel_simd.hpp"
 #include "solver/engine/scene.hpp"
@@ -312,9 +312,9 @@ class Stepper {
   NeighborList list_;
   PairForces pair_forces_;
   PairHistory history_;
-  std::vector<ExactSum> wall_loads_;             ///< per thread and boundary, last evaluation
+  std::vector<ExactSum> wall_loads_;  ///< per thread and boundary, last evaluation
   std::vector<BoundaryCandidates> boundary_candidates_;  ///< per boundary; gathered with every list
-  std::vector<BoundaryFrame> boundary_frames_;   ///< per boundary, at the last evaluation
+  std::vector<BoundaryFrame> boundary_frames_;           ///< per boundary, at the last evaluation
   /// Per material pair, the SIMD pass's constants; empty where the run takes the scalar pass
   /// (simd_pass_applies).
   std::vector<LanePairConstants> lane_constants_;
