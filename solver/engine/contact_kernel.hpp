@@ -646,23 +646,28 @@ struct BoundaryTally {
 /// particles (3) and its moment about the boundary's reference point (3).
 inline constexpr std::size_t kBoundaryLoadValues = 6;
 
-/// Adds every boundary's contacts with particle i to @p load and to the block's boundary loads
-/// @p block_load (kBoundaryLoadValues per boundary); boundaries held at a temperature also
-/// conduct heat. @p frames: every boundary's frame at its current pose. @p next_near: per
-/// boundary, the place in its candidates' near list of the first particle not before i (the
-/// particles come in ascending order, and each one found moves its boundary's place on).
+/// Adds the contacts of boundary @p b with the particles [@p first, @p end) to their loads
+/// @p loads (by place in the range) and to the boundary loads (kBoundaryLoadValues per boundary)
+/// of @p thread_load, or of @p uncounted_load for a particle that @p counted leaves to another
+/// rank; boundaries held at a temperature also conduct heat. A mesh is searched for every
+/// particle among its candidate triangles; an analytic boundary tests only the particles in its
+/// reach (boundary_candidates.hpp): the others have no contact with it and no history to
+/// release. Boundary by boundary, each particle still receives its boundaries in case order.
 template <bool kFriction, bool kModels, class Law>
-[[gnu::always_inline]] inline void gather_boundaries(
-    Particles& p, const Scene& scene, const Law& law, const std::vector<BoundaryFrame>& frames,
-    const std::vector<BoundaryCandidates>& candidates, std::size_t i, bool thermal,
-    MeshQueryBuffer& buffer, std::size_t* next_near, ExactSum* thread_load, ParticleLoad& load,
-    BoundaryTally& tally) {
-  for (std::size_t b = 0; b < scene.boundaries.size(); ++b) {
-    const Boundary& boundary = scene.boundaries[b];
-    ExactSum* boundary_load = thread_load + b * kBoundaryLoadValues;
-    const auto add = [&](const BoundaryContact& contact) {
+void gather_boundary(Particles& p, const Scene& scene, const Law& law, std::size_t b,
+                     const BoundaryFrame& frame, const BoundaryCandidates& candidates,
+                     std::size_t first, std::size_t end, bool thermal, const std::uint8_t* counted,
+                     MeshQueryBuffer& buffer, ExactSum* thread_load, ExactSum* uncounted_load,
+                     ParticleLoad* loads, BoundaryTally& tally, BoundaryTally& uncounted) {
+  const Boundary& boundary = scene.boundaries[b];
+  const auto adder = [&](std::size_t i) {
+    return [&, i](const BoundaryContact& contact) {
       // A JKR contact held apart still pulls; it conducts no heat and counts as no contact.
       if (contact.overlap <= 0.0 && !kModels) return;
+      const bool counts = counted == nullptr || counted[i] != 0;
+      ExactSum* boundary_load = (counts ? thread_load : uncounted_load) + b * kBoundaryLoadValues;
+      BoundaryTally& kept = counts ? tally : uncounted;
+      ParticleLoad& load = loads[i - first];
       const Eigen::Vector3d moment = (contact.point - boundary.center).cross(contact.force);
       for (int axis = 0; axis < 3; ++axis) {
         boundary_load[axis].add(contact.force[axis]);
@@ -671,9 +676,9 @@ template <bool kFriction, bool kModels, class Law>
       load.force += contact.force;
       load.torque += contact.torque;
       if (contact.overlap <= 0.0) return;
-      ++tally.contacts;
-      tally.max_overlap = std::max(tally.max_overlap, contact.overlap);
-      tally.max_fraction = std::max(tally.max_fraction, contact.overlap / p.radius[i]);
+      ++kept.contacts;
+      kept.max_overlap = std::max(kept.max_overlap, contact.overlap);
+      kept.max_fraction = std::max(kept.max_fraction, contact.overlap / p.radius[i]);
       if (thermal && boundary.temperature > 0.0) {
         const double h = spot_conductance(scene.pair(p.material[i], boundary.material).conductivity,
                                           spot_radius(p.radius[i], contact.overlap));
@@ -681,20 +686,22 @@ template <bool kFriction, bool kModels, class Law>
         load.conductance += h;
       }
     };
-    if (std::holds_alternative<MeshShape>(boundary.shape)) {
-      mesh_boundary_contacts<kFriction, kModels>(p, scene, law, b, frames[b], candidates[b], i,
-                                                 buffer, add);
-    } else {
-      // A particle out of the boundary's reach has no contact with it and no history to release
-      // (boundary_candidates.hpp).
-      const std::vector<std::uint32_t>& near = candidates[b].near;
-      if (next_near[b] == near.size() || near[next_near[b]] != i) continue;
-      ++next_near[b];
-      const BoundaryContact contact =
-          analytic_boundary_contact<kFriction, kModels>(p, scene, law, b, frames[b], i);
-      if (contact.overlap > 0.0 || (kModels && contact.force != Eigen::Vector3d::Zero())) {
-        add(contact);
-      }
+  };
+  if (std::holds_alternative<MeshShape>(boundary.shape)) {
+    for (std::size_t i = first; i < end; ++i) {
+      mesh_boundary_contacts<kFriction, kModels>(p, scene, law, b, frame, candidates, i, buffer,
+                                                 adder(i));
+    }
+    return;
+  }
+  const std::vector<std::uint32_t>& near = candidates.near;
+  for (auto at = std::lower_bound(near.begin(), near.end(), first); at != near.end() && *at < end;
+       ++at) {
+    const std::size_t i = *at;
+    const BoundaryContact contact =
+        analytic_boundary_contact<kFriction, kModels>(p, scene, law, b, frame, i);
+    if (contact.overlap > 0.0 || (kModels && contact.force != Eigen::Vector3d::Zero())) {
+      adder(i)(contact);
     }
   }
 }
@@ -747,25 +754,26 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
     BoundaryTally uncounted;  // of particles another rank counts: only its maxima are kept
     thread_local MeshQueryBuffer buffer;  // reused: mesh queries allocate only while it grows
     thread_local std::vector<ExactSum> uncounted_load;
-    thread_local std::vector<std::size_t> next_near;
     if (counted != nullptr) uncounted_load.resize(boundaries * kBoundaryLoadValues);
     const std::size_t block_begin = block * kWallLoadBlock;
     const std::size_t block_end = std::min(n, block_begin + kWallLoadBlock);
-    next_near.resize(boundaries);
-    for (std::size_t b = 0; b < boundaries; ++b) {
-      const std::vector<std::uint32_t>& near = candidates[b].near;
-      next_near[b] = static_cast<std::size_t>(
-          std::lower_bound(near.begin(), near.end(), block_begin) - near.begin());
-    }
     ParticleLoad loads[kWallLoadBlock];
     gather_pair_range<kFriction>(p, list, pair_forces, g, rolling, thermal, block_begin, block_end,
                                  loads);
+    for (std::size_t b = 0; b < boundaries; ++b) {
+      gather_boundary<kFriction, kModels>(p, scene, law, b, frames[b], candidates[b], block_begin,
+                                          block_end, thermal, counted, buffer, thread_load,
+                                          uncounted_load.data(), loads, tally, uncounted);
+    }
+    // In locals: a store through the arrays could otherwise alias p's own members.
+    double* __restrict force_x = p.fx.data();
+    double* __restrict force_y = p.fy.data();
+    double* __restrict force_z = p.fz.data();
+    double* __restrict torque_x = p.tx.data();
+    double* __restrict torque_y = p.ty.data();
+    double* __restrict torque_z = p.tz.data();
     for (std::size_t i = block_begin; i < block_end; ++i) {
       ParticleLoad& load = loads[i - block_begin];
-      const bool counts = counted == nullptr || counted[i] != 0;
-      gather_boundaries<kFriction, kModels>(
-          p, scene, law, frames, candidates, i, thermal, buffer, next_near.data(),
-          counts ? thread_load : uncounted_load.data(), load, counts ? tally : uncounted);
       if (thermal) {
         exchange_with_surroundings(p, scene, i, load);
         p.heat_rate[i] = load.heat;
@@ -773,13 +781,13 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
             std::max(thermal_ratio,
                      thermal_step_ratio(scene.time_step, load.conductance, p.inv_heat_capacity[i]));
       }
-      p.fx[i] = load.force.x();
-      p.fy[i] = load.force.y();
-      p.fz[i] = load.force.z();
+      force_x[i] = load.force.x();
+      force_y[i] = load.force.y();
+      force_z[i] = load.force.z();
       if constexpr (kFriction) {
-        p.tx[i] = load.torque.x();
-        p.ty[i] = load.torque.y();
-        p.tz[i] = load.torque.z();
+        torque_x[i] = load.torque.x();
+        torque_y[i] = load.torque.y();
+        torque_z[i] = load.torque.z();
       }
     }
     wall_contacts += tally.contacts;
