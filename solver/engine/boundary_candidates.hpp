@@ -9,10 +9,11 @@
 /// every boundary took as long as summing the pairs (pass 2 of the 20 800 peer lattice).
 ///
 /// They only narrow the search: the contacts found among them are the ones the full search finds
-/// (mesh_contacts_among), so when they are rebuilt does not change any result. A particle left
-/// out of an analytic boundary's list has no contact with it and no history to release: a
-/// contact's history is released at the first evaluation out of contact, and a particle in
-/// contact at that evaluation is within reach when the lists are gathered next.
+/// (mesh_contacts_among), so when they are rebuilt does not change any result. A particle
+/// without candidates (no triangle of a mesh, or left out of an analytic boundary's list) has no
+/// contact with the boundary and no history to release, and is not tested at all: a contact's
+/// history is released at the first evaluation out of contact, and a particle in contact at that
+/// evaluation is within reach when the lists are gathered next.
 ///
 /// Validity. A list is gathered with the contact reach plus a margin of 1.5 skins. Until the
 /// next rebuild a particle moves at most one skin from where the list saw it (half a skin from

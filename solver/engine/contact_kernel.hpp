@@ -649,10 +649,11 @@ inline constexpr std::size_t kBoundaryLoadValues = 6;
 /// Adds the contacts of boundary @p b with the particles [@p first, @p end) to their loads
 /// @p loads (by place in the range) and to the boundary loads (kBoundaryLoadValues per boundary)
 /// of @p thread_load, or of @p uncounted_load for a particle that @p counted leaves to another
-/// rank; boundaries held at a temperature also conduct heat. A mesh is searched for every
-/// particle among its candidate triangles; an analytic boundary tests only the particles in its
-/// reach (boundary_candidates.hpp): the others have no contact with it and no history to
-/// release. Boundary by boundary, each particle still receives its boundaries in case order.
+/// rank; boundaries held at a temperature also conduct heat. A mesh is searched for each
+/// particle among its candidate triangles, an analytic boundary for the particles in its reach
+/// (boundary_candidates.hpp): a particle without candidates has no contact with the boundary
+/// and no history to release. Boundary by boundary, each particle still receives its boundaries in
+/// case order.
 template <bool kFriction, bool kModels, class Law>
 void gather_boundary(Particles& p, const Scene& scene, const Law& law, std::size_t b,
                      const BoundaryFrame& frame, const BoundaryCandidates& candidates,
@@ -689,6 +690,7 @@ void gather_boundary(Particles& p, const Scene& scene, const Law& law, std::size
   };
   if (std::holds_alternative<MeshShape>(boundary.shape)) {
     for (std::size_t i = first; i < end; ++i) {
+      if (candidates.start[i] == candidates.start[i + 1]) continue;  // holds no slot either
       mesh_boundary_contacts<kFriction, kModels>(p, scene, law, b, frame, candidates, i, buffer,
                                                  adder(i));
     }
