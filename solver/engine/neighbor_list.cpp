@@ -17,10 +17,6 @@ void release(std::vector<T>& buffer) {
   std::vector<T>().swap(buffer);
 }
 
-constexpr std::uint8_t image_code(int sx, int sy, int sz) {
-  return static_cast<std::uint8_t>((sx + 1) + 3 * (sy + 1) + 9 * (sz + 1));
-}
-
 /// Cells per axis of edge >= @p cell_size, at most about @p max_cells in all: unpinned axes are
 /// widened alike by steps of 1.25 until the total fits; a @p pinned axis keeps three cells.
 std::array<int, 3> grid_cells(const Eigen::Vector3d& length, double cell_size, double max_cells,

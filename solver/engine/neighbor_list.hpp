@@ -21,6 +21,14 @@ struct NeighborListState {
   StaggeredVector<double> x0, y0, z0;
 };
 
+/// Image code of the periodic image shifted by (@p sx, @p sy, @p sz) boxes, each -1, 0 or 1.
+constexpr std::uint8_t image_code(int sx, int sy, int sz) {
+  return static_cast<std::uint8_t>((sx + 1) + 3 * (sy + 1) + 9 * (sz + 1));
+}
+
+/// Image code of a pair that sees j itself (a zero shift): most pairs.
+inline constexpr std::uint8_t kUnshiftedImage = image_code(0, 0, 0);
+
 /// Half neighbor list in compressed rows: row i lists the particles j of larger id than i whose
 /// surfaces were closer than the skin at the last build, by id, each with the periodic image of j
 /// to use. A transposed index lists, for every particle j, the pairs in which it is the second

@@ -106,12 +106,14 @@ HWY_NOINLINE void pack_block(const detail::LanePassArgs& a, PairBlock& b, std::u
     const double* HWY_RESTRICT x = p.x.data();
     const double* HWY_RESTRICT y = p.y.data();
     const double* HWY_RESTRICT z = p.z.data();
+    // The scalar pass adds every pair's shift, +0 for most: adding +0 here too turns a
+    // difference of -0 into +0 as it does, and (x_j - x_i + 0) + s is (x_j - x_i) + s.
     for (std::uint32_t s = 0; s < count; ++s) {
-      b.dx[s] = x[second[s]] - x[first[s]];
-      b.dy[s] = y[second[s]] - y[first[s]];
-      b.dz[s] = z[second[s]] - z[first[s]];
+      b.dx[s] = x[second[s]] - x[first[s]] + 0.0;
+      b.dy[s] = y[second[s]] - y[first[s]] + 0.0;
+      b.dz[s] = z[second[s]] - z[first[s]] + 0.0;
     }
-    // Periodic images are rare: most pairs add no shift.
+    // Periodic images are rare: most pairs see j itself and need no other shift.
     const std::uint8_t* HWY_RESTRICT image = a.list->images() + first_k;
     // In locals: a store into the block could otherwise alias the argument's pointers, which
     // would be read again for every pair.
@@ -120,7 +122,7 @@ HWY_NOINLINE void pack_block(const detail::LanePassArgs& a, PairBlock& b, std::u
     const double* HWY_RESTRICT shift_z = a.shift_z;
     for (std::uint32_t s = 0; s < count; ++s) {
       const std::uint8_t code = image[s];
-      if (code == 0) continue;
+      if (code == kUnshiftedImage) continue;
       b.dx[s] += shift_x[code];
       b.dy[s] += shift_y[code];
       b.dz[s] += shift_z[code];
