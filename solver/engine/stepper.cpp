@@ -11,16 +11,6 @@
 
 namespace bondem {
 
-namespace {
-/// Half-kick of particle i's spin by its torque: w += (half_dt / I) t.
-inline void kick_spin(Particles& p, std::size_t i, double half_dt) {
-  const double kick = half_dt * p.inverse_inertia(i);
-  p.wx[i] += kick * p.tx[i];
-  p.wy[i] += kick * p.ty[i];
-  p.wz[i] += kick * p.tz[i];
-}
-}  // namespace
-
 Stepper::Stepper(Scene& scene, PairFlag pair_flag)
     : scene_(scene), pair_flag_(std::move(pair_flag)) {
   start();
@@ -338,61 +328,52 @@ void Stepper::rebuild_list() {
   build_boundary_candidates(scene_, boundary_candidates_);
 }
 
-double Stepper::drift(double dt) {
+SweepArrays Stepper::sweep_arrays() {
   Particles& p = scene_.particles;
-  const double half_dt = 0.5 * dt;
-  const std::size_t n = p.size();
-  const bool track_displacement = p.displacement_tracked;
   const bool spin = scene_.friction;
+  const bool tracked = p.displacement_tracked;
+  return {p.x.data(), p.y.data(), p.z.data(), p.vx.data(), p.vy.data(), p.vz.data(), p.fx.data(),
+          p.fy.data(), p.fz.data(), spin ? p.wx.data() : nullptr, spin ? p.wy.data() : nullptr,
+          spin ? p.wz.data() : nullptr, spin ? p.tx.data() : nullptr, spin ? p.ty.data() : nullptr,
+          spin ? p.tz.data() : nullptr, tracked ? p.dx.data() : nullptr,
+          tracked ? p.dy.data() : nullptr, tracked ? p.dz.data() : nullptr, p.mass.data(),
+          p.radius.data(), list_.build_positions(0).data(), list_.build_positions(1).data(),
+          list_.build_positions(2).data(),
+          // Only the counted particles' displacements: a decomposed run's ranks then agree on
+          // the whole run's largest, however far their ghosts drift from their owners meanwhile.
+          counted_.empty() ? nullptr : counted_.data()};
+}
+
+double Stepper::drift(double dt) {
   for (Boundary& boundary : scene_.boundaries) move_boundary(boundary, time_, dt);
   // One sweep: the opening half-kicks, the drift and the list's displacement check each read and
-  // write the same particle arrays, which at 10^6 particles come from memory every time.
+  // write the same particle arrays, which at 10^6 particles come from memory every time. The
+  // displacement gets the very increment the position gets, so it stays x - x0 up to rounding
+  // and does not jump when the list wraps a coordinate across a periodic boundary.
+  const SweepArrays arrays = sweep_arrays();
+  const std::size_t n = scene_.particles.size();
+  const std::size_t chunks = (n + kPairPassChunk - 1) / kPairPassChunk;
   double largest_sq = 0.0;
-  // Only the counted particles' displacements: a decomposed run's ranks then agree on the whole
-  // run's largest, however far their ghosts drift from their owners' positions meanwhile.
-  const std::uint8_t* counted = counted_.empty() ? nullptr : counted_.data();
+  // In runs of chunks per thread, as pass 1 splits its rows.
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) reduction(max \
                                                                                     : largest_sq)
-  for (std::size_t i = 0; i < n; ++i) {
-    const double kick = half_dt * p.inverse_mass(i);
-    p.vx[i] += kick * p.fx[i];
-    p.vy[i] += kick * p.fy[i];
-    p.vz[i] += kick * p.fz[i];
-    // The displacement gets the very increment the position gets, so it stays x - x0 up to
-    // rounding and does not jump when the list wraps a coordinate across a periodic boundary.
-    const double step_x = dt * p.vx[i];
-    const double step_y = dt * p.vy[i];
-    const double step_z = dt * p.vz[i];
-    p.x[i] += step_x;
-    p.y[i] += step_y;
-    p.z[i] += step_z;
-    if (track_displacement) {
-      p.dx[i] += step_x;
-      p.dy[i] += step_y;
-      p.dz[i] += step_z;
-    }
-    if (spin) kick_spin(p, i, half_dt);
-    if (counted == nullptr || counted[i] != 0) {
-      largest_sq = std::max(largest_sq, list_.displacement_sq(p, i));
-    }
+  for (std::size_t c = 0; c < chunks; ++c) {
+    largest_sq = std::max(largest_sq, opening_sweep(arrays, dt, c * kPairPassChunk,
+                                                    std::min(n, (c + 1) * kPairPassChunk)));
   }
   return largest_sq;
 }
 
 bool Stepper::finish_step(double dt) {
   Particles& p = scene_.particles;
-  const double half_dt = 0.5 * dt;
   const std::size_t n = p.size();
-  const bool spin = scene_.friction;
+  const SweepArrays arrays = sweep_arrays();
+  const std::size_t chunks = (n + kPairPassChunk - 1) / kPairPassChunk;
   bool finite = true;
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) reduction(&& : finite)
-  for (std::size_t i = 0; i < n; ++i) {
-    if (spin) kick_spin(p, i, half_dt);
-    const double kick = half_dt * p.inverse_mass(i);
-    p.vx[i] += kick * p.fx[i];
-    p.vy[i] += kick * p.fy[i];
-    p.vz[i] += kick * p.fz[i];
-    finite = finite && std::isfinite(p.vx[i] + p.vy[i] + p.vz[i] + p.x[i] + p.y[i] + p.z[i]);
+  for (std::size_t c = 0; c < chunks; ++c) {
+    finite = closing_sweep(arrays, dt, c * kPairPassChunk, std::min(n, (c + 1) * kPairPassChunk)) &&
+             finite;
   }
   if (p.thermal()) {
     // Forward Euler on m c_p dT/dt = sum Q with the flows of the temperatures at the step's start.

@@ -16,6 +16,7 @@
 #include "solver/engine/exact_sum.hpp"
 #include "solver/engine/neighbor_list.hpp"
 #include "solver/engine/pair_kernel_simd.hpp"
+#include "solver/engine/particle_sweeps_simd.hpp"
 #include "solver/engine/scene.hpp"
 #include "solver/engine/slip_record.hpp"
 
@@ -232,6 +233,8 @@ class Stepper {
   ContactSummary evaluate_forces(const Law& law);
   /// The laser's heat deposit of this step into p.heat_rate (thermal runs with a laser).
   void deposit_laser(double laser_time);
+  /// The particle arrays of the sweeps (drift, finish_step), as they are now.
+  SweepArrays sweep_arrays();
   /// Half kick and drift; returns the largest squared displacement since the last list build.
   double drift(double dt);
   /// Insert into @p into what the scene's streams owe by @p time; returns the count.

@@ -1,0 +1,147 @@
+// The stepper's sweeps in SIMD lanes (particle_sweeps_simd.hpp). Highway re-includes this file
+// once per target (hwy/foreach_target.h), as pair_kernel_simd.cpp.
+#include "solver/engine/particle_sweeps_simd.hpp"
+
+#include <algorithm>
+
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "solver/engine/particle_sweeps_simd.cpp"
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/highway.h>
+
+HWY_BEFORE_NAMESPACE();
+namespace bondem::HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+
+/// w += (dt/2) T / (0.4 m r^2) for the lanes at @p i: Particles::inverse_inertia's
+/// operations, then the kick.
+template <class D>
+HWY_INLINE void kick_spin_lanes(D d, const SweepArrays& a, hn::Vec<D> half_dt, std::size_t i) {
+  const auto r = hn::LoadU(d, a.radius + i);
+  const auto inertia = hn::Set(d, 0.4) * hn::LoadU(d, a.mass + i) * r * r;
+  const auto kick = half_dt * (hn::Set(d, 1.0) / inertia);
+  hn::StoreU(hn::LoadU(d, a.wx + i) + kick * hn::LoadU(d, a.tx + i), d, a.wx + i);
+  hn::StoreU(hn::LoadU(d, a.wy + i) + kick * hn::LoadU(d, a.ty + i), d, a.wy + i);
+  hn::StoreU(hn::LoadU(d, a.wz + i) + kick * hn::LoadU(d, a.tz + i), d, a.wz + i);
+}
+
+/// v += (dt/2) F/m for the lanes at @p i: the scalar inverse_mass's division, then the kick.
+template <class D>
+HWY_INLINE void kick_lanes(D d, const SweepArrays& a, hn::Vec<D> half_dt, std::size_t i) {
+  const auto kick = half_dt * (hn::Set(d, 1.0) / hn::LoadU(d, a.mass + i));
+  hn::StoreU(hn::LoadU(d, a.vx + i) + kick * hn::LoadU(d, a.fx + i), d, a.vx + i);
+  hn::StoreU(hn::LoadU(d, a.vy + i) + kick * hn::LoadU(d, a.fy + i), d, a.vy + i);
+  hn::StoreU(hn::LoadU(d, a.vz + i) + kick * hn::LoadU(d, a.fz + i), d, a.vz + i);
+}
+
+/// The opening sweep for the lanes at @p i: returns their squared displacements since the
+/// list's build (all lanes; the caller keeps the counted ones).
+template <class D>
+HWY_INLINE hn::Vec<D> open_lanes(D d, const SweepArrays& a, hn::Vec<D> dt, hn::Vec<D> half_dt,
+                                 std::size_t i) {
+  kick_lanes(d, a, half_dt, i);
+  const auto step_x = dt * hn::LoadU(d, a.vx + i);
+  const auto step_y = dt * hn::LoadU(d, a.vy + i);
+  const auto step_z = dt * hn::LoadU(d, a.vz + i);
+  const auto x = hn::LoadU(d, a.x + i) + step_x;
+  const auto y = hn::LoadU(d, a.y + i) + step_y;
+  const auto z = hn::LoadU(d, a.z + i) + step_z;
+  hn::StoreU(x, d, a.x + i);
+  hn::StoreU(y, d, a.y + i);
+  hn::StoreU(z, d, a.z + i);
+  if (a.dx != nullptr) {
+    hn::StoreU(hn::LoadU(d, a.dx + i) + step_x, d, a.dx + i);
+    hn::StoreU(hn::LoadU(d, a.dy + i) + step_y, d, a.dy + i);
+    hn::StoreU(hn::LoadU(d, a.dz + i) + step_z, d, a.dz + i);
+  }
+  if (a.wx != nullptr) kick_spin_lanes(d, a, half_dt, i);
+  const auto moved_x = x - hn::LoadU(d, a.x0 + i);
+  const auto moved_y = y - hn::LoadU(d, a.y0 + i);
+  const auto moved_z = z - hn::LoadU(d, a.z0 + i);
+  return moved_x * moved_x + moved_y * moved_y + moved_z * moved_z;
+}
+
+/// Raises @p largest to the lanes of @p moved_sq that count (all without a.counted). A
+/// comparison, not Max: a maximum is exact, so any lane order agrees.
+template <class D>
+HWY_INLINE hn::Vec<D> keep_largest(D d, const SweepArrays& a, hn::Vec<D> largest,
+                                   hn::Vec<D> moved_sq, std::size_t i) {
+  auto raise = moved_sq > largest;
+  if (a.counted != nullptr) {
+    HWY_ALIGN double counts[hn::MaxLanes(d)];
+    for (std::size_t l = 0; l < hn::Lanes(d); ++l) counts[l] = a.counted[i + l];
+    raise = hn::And(raise, hn::Load(d, counts) > hn::Zero(d));
+  }
+  return hn::IfThenElse(raise, moved_sq, largest);
+}
+
+/// The largest lane of @p v (exact: any order agrees).
+template <class D>
+HWY_INLINE double largest_lane(D d, hn::Vec<D> v) {
+  HWY_ALIGN double lanes[hn::MaxLanes(d)];
+  hn::Store(v, d, lanes);
+  double largest = 0.0;
+  for (std::size_t l = 0; l < hn::Lanes(d); ++l) largest = std::max(largest, lanes[l]);
+  return largest;
+}
+
+double OpeningSweep(const SweepArrays& a, double dt, std::size_t first, std::size_t end) {
+  // Whole vectors, then the rest one lane at a time: the same operations on one lane.
+  const hn::ScalableTag<double> d;
+  const hn::CappedTag<double, 1> d1;
+  auto largest = hn::Zero(d);
+  auto largest_1 = hn::Zero(d1);
+  std::size_t i = first;
+  for (; i + hn::Lanes(d) <= end; i += hn::Lanes(d)) {
+    const auto moved_sq = open_lanes(d, a, hn::Set(d, dt), hn::Set(d, 0.5 * dt), i);
+    largest = keep_largest(d, a, largest, moved_sq, i);
+  }
+  for (; i < end; ++i) {
+    const auto moved_sq = open_lanes(d1, a, hn::Set(d1, dt), hn::Set(d1, 0.5 * dt), i);
+    largest_1 = keep_largest(d1, a, largest_1, moved_sq, i);
+  }
+  return std::max(largest_lane(d, largest), largest_lane(d1, largest_1));
+}
+
+/// The closing sweep for the lanes at @p i; returns where the position and velocity are finite.
+template <class D>
+HWY_INLINE hn::Mask<D> close_lanes(D d, const SweepArrays& a, hn::Vec<D> half_dt, std::size_t i) {
+  if (a.wx != nullptr) kick_spin_lanes(d, a, half_dt, i);
+  kick_lanes(d, a, half_dt, i);
+  const auto sum = hn::LoadU(d, a.vx + i) + hn::LoadU(d, a.vy + i) + hn::LoadU(d, a.vz + i) +
+                   hn::LoadU(d, a.x + i) + hn::LoadU(d, a.y + i) + hn::LoadU(d, a.z + i);
+  return hn::IsFinite(sum);
+}
+
+bool ClosingSweep(const SweepArrays& a, double dt, std::size_t first, std::size_t end) {
+  const hn::ScalableTag<double> d;
+  const hn::CappedTag<double, 1> d1;
+  bool finite = true;
+  std::size_t i = first;
+  for (; i + hn::Lanes(d) <= end; i += hn::Lanes(d)) {
+    finite = hn::AllTrue(d, close_lanes(d, a, hn::Set(d, 0.5 * dt), i)) && finite;
+  }
+  for (; i < end; ++i)
+    finite = hn::AllTrue(d1, close_lanes(d1, a, hn::Set(d1, 0.5 * dt), i)) && finite;
+  return finite;
+}
+
+}  // namespace bondem::HWY_NAMESPACE
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace bondem {
+
+HWY_EXPORT(OpeningSweep);
+HWY_EXPORT(ClosingSweep);
+
+double opening_sweep(const SweepArrays& a, double dt, std::size_t first, std::size_t end) {
+  return HWY_DYNAMIC_DISPATCH(OpeningSweep)(a, dt, first, end);
+}
+
+bool closing_sweep(const SweepArrays& a, double dt, std::size_t first, std::size_t end) {
+  return HWY_DYNAMIC_DISPATCH(ClosingSweep)(a, dt, first, end);
+}
+
+}  // namespace bondem
+#endif  // HWY_ONCE

@@ -1,0 +1,36 @@
+#pragma once
+/// @file particle_sweeps_simd.hpp
+/// The stepper's two sweeps over the particles (velocity Verlet's half-kicks and drift) in SIMD
+/// lanes of the target select_simd_target chose, one particle per lane. Each value takes the
+/// same IEEE operations in the same order on every target, scalar included, so the bytes are
+/// the same everywhere. In lanes the four divisions a particle takes per step (1/m and 1/I in
+/// each sweep) run several at a time: the scalar loops waited on the divider.
+
+#include <cstddef>
+#include <cstdint>
+
+namespace bondem {
+
+/// The particle arrays the sweeps read and write, for particles by index.
+struct SweepArrays {
+  double *x, *y, *z;
+  double *vx, *vy, *vz;
+  const double *fx, *fy, *fz;
+  double *wx, *wy, *wz;        ///< angular velocity: null where the run has no friction
+  const double *tx, *ty, *tz;  ///< torque: null with wx
+  double *dx, *dy, *dz;        ///< displacement since insertion: null where not tracked
+  const double *mass, *radius;
+  const double *x0, *y0, *z0;   ///< positions at the neighbor list's last build
+  const std::uint8_t* counted;  ///< 1 where the particle's displacement counts; null: all do
+};
+
+/// The opening sweep over particles [@p first, @p end): v += (dt/2) F/m, x += dt v (the tracked
+/// displacement by the same step), w += (dt/2) T/I with I = 0.4 m r^2. Returns the largest
+/// squared displacement since the list's last build among the counted particles (0 if none).
+double opening_sweep(const SweepArrays& a, double dt, std::size_t first, std::size_t end);
+
+/// The closing sweep over particles [@p first, @p end): w += (dt/2) T/I, v += (dt/2) F/m.
+/// Returns whether every position and velocity is finite (their sum, as one test).
+bool closing_sweep(const SweepArrays& a, double dt, std::size_t first, std::size_t end);
+
+}  // namespace bondem
