@@ -62,7 +62,8 @@ HWY_INLINE hn::Vec<D> open_lanes(D d, const SweepArrays& a, hn::Vec<D> dt, hn::V
 }
 
 /// Raises @p largest to the lanes of @p moved_sq that count (all without a.counted). A
-/// comparison, not Max: a maximum is exact, so any lane order agrees.
+/// comparison, as std::max in the scalar loop, not Max (whose NaN results differ by target); a
+/// maximum is exact, so any lane order agrees.
 template <class D>
 HWY_INLINE hn::Vec<D> keep_largest(D d, const SweepArrays& a, hn::Vec<D> largest,
                                    hn::Vec<D> moved_sq, std::size_t i) {
