@@ -476,11 +476,15 @@ BoundaryContact analytic_boundary_contact(Particles& p, const Scene& scene, cons
 /// The contacts of particle i with mesh boundary @p b, each passed to @p add (a BoundaryContact),
 /// in the double-contact rule's order. Each contact takes the slot whose last normal (boundary
 /// frame) is nearest its own within kSameMeshContactCosine, else a free slot with fresh history;
-/// slots left without a contact are released. The search runs among the particle's @p candidates.
+/// slots left without a contact are released. The search runs among the particle's @p candidates;
+/// a particle without any has no contact and holds no slot (boundary_candidates.hpp).
 template <bool kFriction, bool kModels, class Law, class Add>
 void mesh_boundary_contacts(Particles& p, const Scene& scene, const Law& law, std::size_t b,
                             const BoundaryFrame& frame, const BoundaryCandidates& candidates,
                             std::size_t i, MeshQueryBuffer& buffer, Add&& add) {
+  const std::span<const BoxedTriangle> near(candidates.triangles.data() + candidates.start[i],
+                                            candidates.start[i + 1] - candidates.start[i]);
+  if (near.empty()) return;
   const Boundary& boundary = scene.boundaries[b];
   const MeshSurface& surface = *std::get<MeshShape>(boundary.shape).surface;
   const std::size_t first = static_cast<std::size_t>(scene.first_slot[b]);
@@ -496,12 +500,6 @@ void mesh_boundary_contacts(Particles& p, const Scene& scene, const Law& law, st
     release_surface<kFriction, kModels>(p, first + static_cast<std::size_t>(s), i);
     normals[3 * s] = normals[3 * s + 1] = normals[3 * s + 2] = 0.0;
   };
-  const std::span<const BoxedTriangle> near(candidates.triangles.data() + candidates.start[i],
-                                            candidates.start[i + 1] - candidates.start[i]);
-  if (near.empty()) {
-    for (int s = 0; s < slots; ++s) release(s);
-    return;
-  }
   const std::span<const MeshContact> found =
       mesh_contacts_among(surface.mesh, near, w, reach, buffer);
   const int count = std::min(static_cast<int>(found.size()), slots);
@@ -690,7 +688,6 @@ void gather_boundary(Particles& p, const Scene& scene, const Law& law, std::size
   };
   if (std::holds_alternative<MeshShape>(boundary.shape)) {
     for (std::size_t i = first; i < end; ++i) {
-      if (candidates.start[i] == candidates.start[i + 1]) continue;  // holds no slot either
       mesh_boundary_contacts<kFriction, kModels>(p, scene, law, b, frame, candidates, i, buffer,
                                                  adder(i));
     }

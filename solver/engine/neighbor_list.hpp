@@ -46,22 +46,13 @@ class NeighborList {
   void save(NeighborListState& state) const;
 
   /// Positions of the last build along @p axis (0, 1, 2: what save() copies), for a writer that
-  /// streams them instead.
+  /// streams them instead and for the stepper's displacement check (opening_sweep).
   const StaggeredVector<double>& build_positions(int axis) const {
     return axis == 0 ? x0_ : axis == 1 ? y0_ : z0_;
   }
 
   /// Rebuild the list of a saved state for particles in the same order (no reordering).
   void restore(Particles& p, const Domain& domain, double skin, const NeighborListState& state);
-
-  /// Squared displacement of particle @p i since the last build. The stepper takes the largest
-  /// in the sweep that moves the particles, so the check costs no pass of its own.
-  double displacement_sq(const Particles& p, std::size_t i) const {
-    const double dx = p.x[i] - x0_[i];
-    const double dy = p.y[i] - y0_[i];
-    const double dz = p.z[i] - z0_[i];
-    return dx * dx + dy * dy + dz * dz;
-  }
 
   /// Number of candidate pairs.
   std::size_t pair_count() const { return second_.size(); }

@@ -25,7 +25,7 @@ HWY_INLINE void kick_spin_lanes(D d, const SweepArrays& a, hn::Vec<D> half_dt, s
   hn::StoreU(hn::LoadU(d, a.wz + i) + kick * hn::LoadU(d, a.tz + i), d, a.wz + i);
 }
 
-/// v += (dt/2) F/m for the lanes at @p i: the scalar inverse_mass's division, then the kick.
+/// v += (dt/2) F/m for the lanes at @p i.
 template <class D>
 HWY_INLINE void kick_lanes(D d, const SweepArrays& a, hn::Vec<D> half_dt, std::size_t i) {
   const auto kick = half_dt * (hn::Set(d, 1.0) / hn::LoadU(d, a.mass + i));

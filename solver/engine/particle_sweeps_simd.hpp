@@ -3,8 +3,9 @@
 /// The stepper's two sweeps over the particles (velocity Verlet's half-kicks and drift) in SIMD
 /// lanes of the target select_simd_target chose, one particle per lane. Each value takes the
 /// same IEEE operations in the same order on every target, scalar included, so the bytes are
-/// the same everywhere. In lanes the four divisions a particle takes per step (1/m and 1/I in
-/// each sweep) run several at a time: the scalar loops waited on the divider.
+/// the same everywhere. 1/m and 1/I are computed in each sweep rather than stored (16 B per
+/// particle); in lanes those four divisions per particle-step run several at a time, where the
+/// scalar loops waited on the divider.
 
 #include <cstddef>
 #include <cstdint>

@@ -100,9 +100,6 @@ struct Particles {
     }
     return order;
   }
-  /// 1 / m of particle i, computed rather than stored: a division per particle and half-kick is
-  /// nothing next to the contacts, and it saves 8 bytes per particle.
-  double inverse_mass(std::size_t i) const { return 1.0 / mass[i]; }
   /// 1 / I of particle i, a solid sphere: I = 2/5 m r^2.
   double inverse_inertia(std::size_t i) const {
     return 1.0 / (0.4 * mass[i] * radius[i] * radius[i]);

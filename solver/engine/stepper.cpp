@@ -332,16 +332,32 @@ SweepArrays Stepper::sweep_arrays() {
   Particles& p = scene_.particles;
   const bool spin = scene_.friction;
   const bool tracked = p.displacement_tracked;
-  return {p.x.data(), p.y.data(), p.z.data(), p.vx.data(), p.vy.data(), p.vz.data(), p.fx.data(),
-          p.fy.data(), p.fz.data(), spin ? p.wx.data() : nullptr, spin ? p.wy.data() : nullptr,
-          spin ? p.wz.data() : nullptr, spin ? p.tx.data() : nullptr, spin ? p.ty.data() : nullptr,
-          spin ? p.tz.data() : nullptr, tracked ? p.dx.data() : nullptr,
-          tracked ? p.dy.data() : nullptr, tracked ? p.dz.data() : nullptr, p.mass.data(),
-          p.radius.data(), list_.build_positions(0).data(), list_.build_positions(1).data(),
-          list_.build_positions(2).data(),
+  return {.x = p.x.data(),
+          .y = p.y.data(),
+          .z = p.z.data(),
+          .vx = p.vx.data(),
+          .vy = p.vy.data(),
+          .vz = p.vz.data(),
+          .fx = p.fx.data(),
+          .fy = p.fy.data(),
+          .fz = p.fz.data(),
+          .wx = spin ? p.wx.data() : nullptr,
+          .wy = spin ? p.wy.data() : nullptr,
+          .wz = spin ? p.wz.data() : nullptr,
+          .tx = spin ? p.tx.data() : nullptr,
+          .ty = spin ? p.ty.data() : nullptr,
+          .tz = spin ? p.tz.data() : nullptr,
+          .dx = tracked ? p.dx.data() : nullptr,
+          .dy = tracked ? p.dy.data() : nullptr,
+          .dz = tracked ? p.dz.data() : nullptr,
+          .mass = p.mass.data(),
+          .radius = p.radius.data(),
+          .x0 = list_.build_positions(0).data(),
+          .y0 = list_.build_positions(1).data(),
+          .z0 = list_.build_positions(2).data(),
           // Only the counted particles' displacements: a decomposed run's ranks then agree on
           // the whole run's largest, however far their ghosts drift from their owners meanwhile.
-          counted_.empty() ? nullptr : counted_.data()};
+          .counted = counted_.empty() ? nullptr : counted_.data()};
 }
 
 double Stepper::drift(double dt) {
