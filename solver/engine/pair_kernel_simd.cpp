@@ -61,9 +61,12 @@ struct PairBlock {
   /// the list in place.
   std::uint32_t first[kLaneBlock + HWY_MAX_BYTES / sizeof(std::uint32_t)];
   HWY_ALIGN double dx[kLaneBlock], dy[kLaneBlock], dz[kLaneBlock];  ///< x_j - x_i (image of j)
-  HWY_ALIGN double ri[kLaneBlock], rj[kLaneBlock], mi[kLaneBlock], mj[kLaneBlock];
+  /// i's radius, mass and spin, a vector of copies per row (broadcast_row): room past the block.
+  static constexpr std::uint32_t kRowSlots = kLaneBlock + HWY_MAX_BYTES / sizeof(double);
+  HWY_ALIGN double ri[kRowSlots], mi[kRowSlots];
+  HWY_ALIGN double wix[kRowSlots], wiy[kRowSlots], wiz[kRowSlots];
+  HWY_ALIGN double rj[kLaneBlock], mj[kLaneBlock];
   HWY_ALIGN double dvx[kLaneBlock], dvy[kLaneBlock], dvz[kLaneBlock];  ///< v_j - v_i
-  HWY_ALIGN double wix[kLaneBlock], wiy[kLaneBlock], wiz[kLaneBlock];
   HWY_ALIGN double wjx[kLaneBlock], wjy[kLaneBlock], wjz[kLaneBlock];
   // What the geometry loop of evaluate_block measures for the law loop.
   HWY_ALIGN double nx[kLaneBlock], ny[kLaneBlock], nz[kLaneBlock];  ///< unit n, i toward j
@@ -94,9 +97,38 @@ inline void put_constants(PairBlock& b, std::uint32_t s, const LanePairConstants
   for (int v = 0; v < PairBlock::kConstants; ++v) b.constant[v][s] = values[v];
 }
 
-/// Gathers the kinematics of the block's @p count pairs, i = b.first[s] and j the list's second
-/// particle of pair first_k + s, into
-/// lane order: a few short loops, each with few streams, keep the pointers in registers.
+/// Writes particle @p i's index, radius, mass and (kFriction) spin into lanes [@p begin, @p end)
+/// of @p b, the pairs of its row: a vector of copies at a time, the last one running past @p end
+/// into what the next row then overwrites. A row usually fits one vector, so its pairs cost one
+/// store per value instead of one per pair, and no branch per pair on where the row ends.
+template <bool kFriction>
+HWY_INLINE void broadcast_row(const Particles& p, PairBlock& b, std::uint32_t i,
+                              std::uint32_t begin, std::uint32_t end) {
+  const hn::ScalableTag<std::uint32_t> du;
+  const auto index = hn::Set(du, i);
+  for (std::uint32_t t = begin; t < end; t += static_cast<std::uint32_t>(hn::Lanes(du))) {
+    hn::StoreU(index, du, b.first + t);
+  }
+  const hn::ScalableTag<double> d;
+  const auto radius = hn::Set(d, p.radius[i]);
+  const auto mass = hn::Set(d, p.mass[i]);
+  for (std::uint32_t t = begin; t < end; t += static_cast<std::uint32_t>(hn::Lanes(d))) {
+    hn::StoreU(radius, d, b.ri + t);
+    hn::StoreU(mass, d, b.mi + t);
+  }
+  if constexpr (kFriction) {
+    const auto wx = hn::Set(d, p.wx[i]), wy = hn::Set(d, p.wy[i]), wz = hn::Set(d, p.wz[i]);
+    for (std::uint32_t t = begin; t < end; t += static_cast<std::uint32_t>(hn::Lanes(d))) {
+      hn::StoreU(wx, d, b.wix + t);
+      hn::StoreU(wy, d, b.wiy + t);
+      hn::StoreU(wz, d, b.wiz + t);
+    }
+  }
+}
+
+/// Gathers j's kinematics and the pair's differences for the block's @p count pairs, i =
+/// b.first[s] (broadcast_row) and j the list's second particle of pair first_k + s, into lane
+/// order: a few short loops, each with few streams, keep the pointers in registers.
 template <bool kFriction>
 HWY_NOINLINE void pack_block(const detail::LanePassArgs& a, PairBlock& b, std::uint32_t first_k,
                              std::uint32_t count) {
@@ -143,9 +175,7 @@ HWY_NOINLINE void pack_block(const detail::LanePassArgs& a, PairBlock& b, std::u
     const double* HWY_RESTRICT radius = p.radius.data();
     const double* HWY_RESTRICT mass = p.mass.data();
     for (std::uint32_t s = 0; s < count; ++s) {
-      b.ri[s] = radius[first[s]];
       b.rj[s] = radius[second[s]];
-      b.mi[s] = mass[first[s]];
       b.mj[s] = mass[second[s]];
     }
   }
@@ -164,9 +194,6 @@ HWY_NOINLINE void pack_block(const detail::LanePassArgs& a, PairBlock& b, std::u
     const double* HWY_RESTRICT wy = p.wy.data();
     const double* HWY_RESTRICT wz = p.wz.data();
     for (std::uint32_t s = 0; s < count; ++s) {
-      b.wix[s] = wx[first[s]];
-      b.wiy[s] = wy[first[s]];
-      b.wiz[s] = wz[first[s]];
       b.wjx[s] = wx[second[s]];
       b.wjy[s] = wy[second[s]];
       b.wjz[s] = wz[second[s]];
@@ -430,7 +457,6 @@ template <bool kFriction>
 ContactSummary LanePass(const detail::LanePassArgs& a, std::size_t first_row,
                         std::size_t last_row) {
   const hn::ScalableTag<double> d;
-  const hn::ScalableTag<std::uint32_t> du;
   const std::uint32_t lanes = static_cast<std::uint32_t>(hn::Lanes(d));
   const StaggeredVector<std::uint32_t>& row_begin = a.list->row_begins();
   PairForces& out = *a.out;
@@ -441,16 +467,10 @@ ContactSummary LanePass(const detail::LanePassArgs& a, std::size_t first_row,
   const std::uint32_t pairs_end = row_begin[last_row];
   for (std::uint32_t block = row_begin[first_row]; block < pairs_end; block += kLaneBlock) {
     const std::uint32_t count = std::min(pairs_end - block, kLaneBlock);
-    // Each row's index into the slots of its pairs, a vector of copies at a time: the next row's
-    // store overwrites what runs past the row's end. A row usually fits one vector, so there is
-    // no branch per pair on where its row ends.
     while (row_begin[row + 1] <= block) ++row;
     for (std::uint32_t s = 0;;) {
       const std::uint32_t row_end = std::min(row_begin[row + 1] - block, count);
-      const auto copies = hn::Set(du, static_cast<std::uint32_t>(row));
-      for (std::uint32_t t = s; t < row_end; t += static_cast<std::uint32_t>(hn::Lanes(du))) {
-        hn::StoreU(copies, du, b.first + t);
-      }
+      broadcast_row<kFriction>(*a.particles, b, static_cast<std::uint32_t>(row), s, row_end);
       s = row_end;
       if (s == count) break;
       ++row;
