@@ -109,7 +109,8 @@ HWY_INLINE void broadcast_row(const Particles& p, PairBlock& b, std::uint32_t i,
   for (std::uint32_t t = begin; t < end; t += static_cast<std::uint32_t>(hn::Lanes(du))) {
     hn::StoreU(index, du, b.first + t);
   }
-  const hn::ScalableTag<double> d;
+  // Four lanes at a time: most rows are short, and a narrower store crosses fewer cache lines.
+  const hn::CappedTag<double, 4> d;
   const auto radius = hn::Set(d, p.radius[i]);
   const auto mass = hn::Set(d, p.mass[i]);
   for (std::uint32_t t = begin; t < end; t += static_cast<std::uint32_t>(hn::Lanes(d))) {
