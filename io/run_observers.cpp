@@ -82,7 +82,8 @@ void write_final_state(const Particles& p, const std::vector<std::string>& mater
   const std::size_t rows = order.size();
   const auto threads = static_cast<std::size_t>(threads_in_use(rows));
   std::vector<std::unique_ptr<char[]>> text(threads);
-  for (auto& buffer : text) buffer.reset(new char[std::min(rows, kBlockRows) * row_chars]);
+  for (auto& buffer : text)
+    buffer = std::make_unique_for_overwrite<char[]>(std::min(rows, kBlockRows) * row_chars);
   std::vector<std::size_t> length(threads, 0);
   for (std::size_t first = 0; first < rows; first += threads * kBlockRows) {
 #pragma omp parallel for schedule(static) num_threads(static_cast <int>(threads)) if (threads > 1)

@@ -57,8 +57,8 @@ constexpr std::uint32_t kLaneBlock = 64;
 struct PairBlock {
   static constexpr int kConstants = 12;
   // The pair's kinematics, gathered by a scalar loop (cheaper than vector gathers here).
-  /// i, with room for a vector store past the block (LanePass fills it by rows); j is read from
-  /// the list in place.
+  /// i, with room for a vector store past the block (broadcast_row fills it by rows); j is read
+  /// from the list in place.
   std::uint32_t first[kLaneBlock + HWY_MAX_BYTES / sizeof(std::uint32_t)];
   HWY_ALIGN double dx[kLaneBlock], dy[kLaneBlock], dz[kLaneBlock];  ///< x_j - x_i (image of j)
   /// i's radius, mass and spin, a vector of copies per row (broadcast_row): room past the block.
