@@ -642,10 +642,13 @@ class DistributedRun {
       if (failure) std::rethrow_exception(failure);
     });
     timer_.lap(Phase::kWait);
-    contacts_ = summed(part_.stepper->contacts());
-    bonds_formed_ += static_cast<std::int64_t>(contacts_.bonds_formed);
-    bonds_broken_ += static_cast<std::int64_t>(contacts_.bonds_broken);
-    load_sums_ = summed(part_.stepper->boundary_load_sums());
+    // This process's share only: the processes add their shares up when a total is read
+    // (sum_totals), at a history row, a frame or the end, not at every step.
+    step_contacts_ = part_.stepper->contacts();
+    step_loads_ = part_.stepper->boundary_load_sums();
+    unsummed_formed_ += static_cast<std::int64_t>(step_contacts_.bonds_formed);
+    unsummed_broken_ += static_cast<std::int64_t>(step_contacts_.bonds_broken);
+    totals_pending_ = true;
     timer_.lap(Phase::kTotals);
     return local[1] != 0.0;
   }
@@ -658,6 +661,7 @@ class DistributedRun {
 
   /// The whole run's totals at this step (a history row), on every process.
   RunTotals totals() const {
+    sum_totals();
     const Stepper& stepper = *part_.stepper;
     const Particles& p = part_.scene->particles;
     RunTotals t;
@@ -701,6 +705,7 @@ class DistributedRun {
   /// On rank 0, the whole run's state assembled from every process's owned particles and pairs
   /// (each pair sent by the owner of its smaller id); elsewhere, nothing. Every process calls it.
   WholeRun assemble() {
+    sum_totals();
     const bool root = world_rank() == 0;
     StepperState state = part_.stepper->save_state(SavedArrays::kOmitted);
     std::vector<std::uint32_t> owned;
@@ -768,6 +773,7 @@ class DistributedRun {
   /// The same, over @p order (an IdStream of this part).
   void write_checkpoint(const IdStream& order, const std::string& path, std::uint64_t fingerprint,
                         const std::string& history) const {
+    sum_totals();
     const Stepper& stepper = *part_.stepper;
     StepperState state = stepper.save_state(SavedArrays::kOmitted);
     state.contacts = contacts_;
@@ -816,6 +822,7 @@ class DistributedRun {
   /// each field once sent. A stop needs only the final state (@p analysed false). Every process
   /// calls it; the part is gone afterwards.
   EndState finish(const IdStream& order, bool analysed) {
+    sum_totals();
     Particles& p = part_.scene->particles;
     const Stepper& stepper = *part_.stepper;
     const bool thermal = p.thermal();
@@ -873,12 +880,30 @@ class DistributedRun {
 
   const RankPart& part() const { return part_; }
   /// The whole run's boundary loads at this step, on every process.
-  std::vector<BoundaryLoad> loads() const { return boundary_loads_of(load_sums_); }
+  std::vector<BoundaryLoad> loads() const {
+    sum_totals();
+    return boundary_loads_of(load_sums_);
+  }
   /// Rebuilds so far that moved the cuts (redistributions) or kept them (migrations).
   std::int64_t redistributions() const { return redistributions_; }
   std::int64_t migrations() const { return migrations_; }
 
  private:
+  /// Adds the processes' shares of the steps since the last call into the run's totals (a
+  /// collective: every process calls it at the same point, as it calls what reads them). One
+  /// sum when a total is read instead of four collectives at every step.
+  void sum_totals() const {
+    if (!totals_pending_) return;
+    contacts_ = summed(step_contacts_);
+    std::int64_t bonds[2] = {unsummed_formed_, unsummed_broken_};
+    MPI_Allreduce(MPI_IN_PLACE, bonds, 2, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
+    bonds_formed_ += bonds[0];
+    bonds_broken_ += bonds[1];
+    unsummed_formed_ = unsummed_broken_ = 0;
+    load_sums_ = summed(step_loads_);
+    totals_pending_ = false;
+  }
+
   /// On rank 0, the fields of a final state of every particle of the run by id, from each
   /// process's @p p over @p order (empty elsewhere); with @p free_sent (the end of the run) each
   /// of @p p's fields is freed as soon as it is sent.
@@ -1346,11 +1371,18 @@ class DistributedRun {
   std::vector<std::vector<std::uint32_t>> sends_;     ///< per process, owned particles it needs
   std::vector<std::vector<std::uint32_t>> receives_;  ///< per process, ghosts it owns
   std::vector<double> send_values_, receive_values_;
-  ContactSummary contacts_;  ///< of the last force evaluation, all processes together
-  std::vector<ExactSum> load_sums_;
-  std::int64_t bonds_formed_ = 0, bonds_broken_ = 0;
-  ParticleTally removed_;              ///< for leaving the domain, all processes together
-  std::vector<std::uint8_t> outside_;  ///< per particle of the part, at a rebuild: removed
+  // The run's totals, all processes together, as of the last sum_totals(): the contacts of the
+  // last force evaluation, the boundary loads, the bonds formed and broken so far.
+  mutable ContactSummary contacts_;
+  mutable std::vector<ExactSum> load_sums_;
+  mutable std::int64_t bonds_formed_ = 0, bonds_broken_ = 0;
+  // This process's share of the last step's totals and its bonds since the last sum_totals().
+  ContactSummary step_contacts_;
+  std::vector<ExactSum> step_loads_;
+  mutable std::int64_t unsummed_formed_ = 0, unsummed_broken_ = 0;
+  mutable bool totals_pending_ = false;  ///< a step since the last sum_totals() (every process)
+  ParticleTally removed_;                ///< for leaving the domain, all processes together
+  std::vector<std::uint8_t> outside_;    ///< per particle of the part, at a rebuild: removed
   Particles arriving_;  ///< a stream's particles of this step, on every process, until the rebuild
   std::vector<std::uint8_t> arriving_outside_;  ///< per particle of arriving_: removed
   std::int64_t redistributions_ = 0;
