@@ -1,9 +1,10 @@
-// StaggeredVector: large buffers start at distinct cache-line offsets within a page, small ones
-// are plain, and the vector behaves as a std::vector (the allocator frees what it allocated:
-// the sanitizer run of the unit tests checks that).
+// StaggeredVector: large buffers start at distinct cache-line offsets within a page (and on a huge
+// page when they span one), small ones are plain, and the vector behaves as a std::vector (the
+// allocator frees what it allocated: the sanitizer run of the unit tests checks that).
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <numeric>
 #include <set>
@@ -29,6 +30,22 @@ TEST(StaggeredVector, LargeBuffersGetDistinctLineAlignedPageOffsets) {
     array.assign(values, 1.0);
     EXPECT_EQ(address(array.data()) % kStaggerStep, 0U);
     offsets.insert(address(array.data()) % 4096);
+  }
+  EXPECT_EQ(offsets.size(), kArrays);
+}
+
+TEST(StaggeredVector, BuffersSpanningAHugePageStartOnOne) {
+  // Huge pages only back whole 2 MiB pages inside a buffer: a buffer starting on a huge page
+  // boundary (plus its stagger offset) wastes none of its head. The stagger still applies.
+  constexpr std::size_t kArrays = 3;
+  const std::size_t values = kHugePageBufferBytes / sizeof(double) + 1;
+  std::vector<StaggeredVector<double>> arrays(kArrays);
+  std::set<std::uintptr_t> offsets;
+  for (StaggeredVector<double>& array : arrays) {
+    assign_zeros(array, values);
+    EXPECT_LT(address(array.data()) % kHugePageBytes, 4096U);
+    offsets.insert(address(array.data()) % 4096);
+    EXPECT_EQ(std::count(array.begin(), array.end(), 0.0), static_cast<std::ptrdiff_t>(values));
   }
   EXPECT_EQ(offsets.size(), kArrays);
 }
