@@ -4,7 +4,7 @@
 set -euo pipefail
 
 packages=(
-  g++ cmake make                      # toolchain
+  g++ cmake make ninja-build          # toolchain (the presets build with Ninja)
   clang-format                        # the formatting check of the test script
   libeigen3-dev                       # small-vector maths
   libvtk9-dev                         # VTK XML output for ParaView
