@@ -182,8 +182,8 @@ void NeighborList::wrap_and_set_shifts(Particles& p, const Domain& domain) {
 
 void NeighborList::search_row(const Particles& p, const Domain& domain,
                               const Eigen::Vector3d& length, double skin, std::size_t i,
-                              std::vector<std::uint32_t>& row_second,
-                              std::vector<std::uint8_t>& row_image) const {
+                              StaggeredVector<std::uint32_t>& row_second,
+                              StaggeredVector<std::uint8_t>& row_image) const {
   const std::size_t c = cell_of_[i];
   int home[3];
   for (int a = 0; a < 3; ++a) {
@@ -242,8 +242,8 @@ namespace {
 
 /// Sorts a row's pairs [@p first, @p second.size()) by the id of their second particle (insertion
 /// sort: a row holds a few pairs), carrying each pair's image code along.
-void sort_row_by_id(const Particles& p, std::size_t first, std::vector<std::uint32_t>& second,
-                    std::vector<std::uint8_t>& image) {
+void sort_row_by_id(const Particles& p, std::size_t first, StaggeredVector<std::uint32_t>& second,
+                    StaggeredVector<std::uint8_t>& image) {
   for (std::size_t a = first + 1; a < second.size(); ++a) {
     const std::uint32_t j = second[a];
     const std::uint8_t code = image[a];
@@ -267,18 +267,29 @@ void NeighborList::find_rows(const Particles& p, const Domain& domain, double sk
   // a cache line of their own: with the vectors' headers side by side, every push_back of one
   // thread invalidated the other's line, and two threads built the list 2-3 times slower than one.
   struct alignas(64) ThreadRows {
-    std::vector<std::uint32_t> second;
-    std::vector<std::uint8_t> image;
+    StaggeredVector<std::uint32_t> second;
+    StaggeredVector<std::uint8_t> image;
     std::size_t first_row = 0;  ///< the first row it searched; n: none
   };
   const int threads = threads_in_use(n);
   std::vector<ThreadRows> rows(static_cast<std::size_t>(threads));
+  // Room for the rows up front, from the last build's pairs per particle (8 at the first build):
+  // grown by doubling, the buffers of a 10^6 list were copied and faulted in about twice over.
+  // Capacity nobody writes is address space only, never resident.
+  const std::size_t previous_rows = row_begin_.empty() ? 0 : row_begin_.size() - 1;
+  const double per_row =
+      previous_rows > 0 ? static_cast<double>(second_.size()) / static_cast<double>(previous_rows)
+                        : 8.0;
+  const auto reserved = static_cast<std::size_t>(
+      (1.25 * per_row + 1.0) * static_cast<double>(n / static_cast<std::size_t>(threads) + 1));
   row_begin_.resize(n + 1);
   row_begin_[0] = 0;
 #pragma omp parallel num_threads(threads) if (threads > 1)
   {
     ThreadRows& mine = rows[static_cast<std::size_t>(omp_get_thread_num())];
     mine.first_row = n;
+    mine.second.reserve(reserved);
+    mine.image.reserve(reserved);
 #pragma omp for schedule(static)
     for (std::size_t i = 0; i < n; ++i) {
       if (mine.first_row == n) mine.first_row = i;

@@ -153,8 +153,8 @@ class NeighborList {
   /// Append particle i's row (pairs with j of larger id within reach, each with its image code),
   /// in search order.
   void search_row(const Particles& p, const Domain& domain, const Eigen::Vector3d& length,
-                  double skin, std::size_t i, std::vector<std::uint32_t>& row_second,
-                  std::vector<std::uint8_t>& row_image) const;
+                  double skin, std::size_t i, StaggeredVector<std::uint32_t>& row_second,
+                  StaggeredVector<std::uint8_t>& row_image) const;
   /// All rows, searched in parallel into per-thread buffers and concatenated in particle order.
   void find_rows(const Particles& p, const Domain& domain, double skin);
   /// The transposed index (pairs by their second particle), count -> scan -> fill, each
