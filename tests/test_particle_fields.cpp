@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <iterator>
+#include <set>
 #include <string>
 #include <string_view>
 #include <type_traits>
@@ -185,6 +186,45 @@ TEST(ParticleFields, DisplacementIsReorderedCheckpointedAndAVtkVector) {
     EXPECT_FALSE(has(*field, kLastGood) || has(*field, kThermal) || has(*field, kPerWall)) << name;
     EXPECT_EQ(field->vtk_name, "displacement") << name;
     EXPECT_EQ(field->vtk_component, component++) << name;
+  }
+}
+
+TEST(ParticleOrder, ByIdForConsecutiveSparseAndRepeatedIds) {
+  // order_by_id places consecutive ids directly and sorts any other set: both must give the
+  // indices in increasing id, whatever the storage order.
+  const auto order_of = [](const std::vector<std::int64_t>& ids) {
+    Particles p;
+    p.id.assign(ids.begin(), ids.end());
+    return p.order_by_id();
+  };
+  const auto sorted_by_id = [](const std::vector<std::int64_t>& ids) {
+    std::vector<std::uint32_t> order(ids.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<std::uint32_t>(i);
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::uint32_t a, std::uint32_t b) { return ids[a] < ids[b]; });
+    return order;
+  };
+  const std::vector<std::vector<std::int64_t>> cases = {
+      {},
+      {42},
+      {12, 10, 14, 11, 13},  // consecutive, shuffled
+      {5, 6, 7, 8},          // consecutive, in order
+      {30, 10, 20, 0},       // sparse
+      {3, 1, 3, 2},          // min..max spans the count but an id repeats
+      {-2, 1, -1, 0},        // consecutive through zero
+  };
+  for (const std::vector<std::int64_t>& ids : cases) {
+    const std::vector<std::uint32_t> order = order_of(ids);
+    ASSERT_EQ(order.size(), ids.size());
+    if (std::set<std::int64_t>(ids.begin(), ids.end()).size() == ids.size()) {
+      EXPECT_EQ(order, sorted_by_id(ids));
+    } else {
+      // A repeated id: any order that sorts the ids will do.
+      EXPECT_TRUE(std::is_sorted(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+        return ids[a] < ids[b];
+      }));
+      EXPECT_EQ(std::set<std::uint32_t>(order.begin(), order.end()).size(), ids.size());
+    }
   }
 }
 

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <string_view>
 #include <type_traits>
 #include <variant>
@@ -92,8 +93,27 @@ struct Particles {
   /// the particles are stored (final state, checkpoint, VTK frames). Indices fit 32 bits (the
   /// neighbor list stores them so).
   std::vector<std::uint32_t> order_by_id() const {
-    std::vector<std::uint32_t> order(size());
-    for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<std::uint32_t>(i);
+    const std::size_t n = size();
+    std::vector<std::uint32_t> order(n);
+    if (n > 0) {
+      // The ids of most runs are a block of consecutive numbers: each index goes straight to its
+      // place, one pass instead of a sort that looks every id up (about 80 ms at 10^6).
+      const auto [low, high] = std::minmax_element(id.begin(), id.end());
+      const auto low_id = static_cast<std::uint64_t>(*low);
+      if (static_cast<std::uint64_t>(*high) - low_id == n - 1) {
+        constexpr std::uint32_t kEmpty = std::numeric_limits<std::uint32_t>::max();
+        std::fill(order.begin(), order.end(), kEmpty);
+        bool distinct = true;
+        for (std::size_t i = 0; i < n && distinct; ++i) {
+          std::uint32_t& place =
+              order[static_cast<std::size_t>(static_cast<std::uint64_t>(id[i]) - low_id)];
+          distinct = place == kEmpty;
+          place = static_cast<std::uint32_t>(i);
+        }
+        if (distinct) return order;
+      }
+    }
+    for (std::size_t i = 0; i < n; ++i) order[i] = static_cast<std::uint32_t>(i);
     if (!std::is_sorted(id.begin(), id.end())) {
       std::sort(order.begin(), order.end(),
                 [&](std::uint32_t a, std::uint32_t b) { return id[a] < id[b]; });
