@@ -30,6 +30,7 @@
 #include "solver/engine/neighbor_list.hpp"
 #include "solver/engine/scene.hpp"
 #include "solver/engine/staggered_vector.hpp"
+#include "solver/engine/thread_split.hpp"
 #include "solver/models/contact_laws.hpp"
 #include "solver/models/contact_point.hpp"
 #include "solver/models/heat_law.hpp"
@@ -260,6 +261,16 @@ struct BondingCriterion {
   }
 };
 
+/// Adds what pass 1 saw in one share of the rows, @p part, to @p sum.
+inline void add_pair_summary(ContactSummary& sum, const ContactSummary& part) {
+  sum.contacts += part.contacts;
+  sum.bonds += part.bonds;
+  sum.bonds_formed += part.bonds_formed;
+  sum.bonds_broken += part.bonds_broken;
+  sum.max_overlap = std::max(sum.max_overlap, part.max_overlap);
+  sum.max_overlap_fraction = std::max(sum.max_overlap_fraction, part.max_overlap_fraction);
+}
+
 /// Particles (rows) per scheduling unit of pass 1, scalar and SIMD alike.
 inline constexpr std::size_t kPairPassChunk = 64;
 
@@ -275,64 +286,60 @@ inline constexpr std::size_t kPairPassChunk = 64;
 /// @param counted per particle, 1 where the pairs in its row count in the summary's contacts,
 /// bonds, formed and broken bonds (a decomposed run's rank counts the pairs whose first particle
 /// it owns); null: all count. The largest overlaps take every pair.
+/// @param split the threads' shares of the rows, kept across calls and balanced by their measured
+/// times; null: equal shares.
 template <bool kFriction, bool kModels, class Law>
 ContactSummary compute_pair_forces(const Particles& p, const Scene& scene, const NeighborList& list,
                                    const Law& law, const BondingCriterion& criterion_met,
                                    PairForces& out, PairHistory& history,
-                                   const std::uint8_t* counted = nullptr) {
+                                   const std::uint8_t* counted = nullptr,
+                                   ThreadSplit* split = nullptr) {
   const std::size_t n = p.size();
-  std::size_t contacts = 0;
-  std::size_t bonds = 0;
-  std::size_t formed = 0;
-  std::size_t broken = 0;
-  double max_overlap = 0.0;
-  double max_fraction = 0.0;
   const bool thermal = p.thermal();
   const bool rolling = kFriction && !out.roll_x.empty();
   constexpr std::uint32_t kBlock = 128;  // pairs per geometry block
   const std::size_t chunks = (n + kPairPassChunk - 1) / kPairPassChunk;
-#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) \
-    reduction(+ : contacts, bonds, formed, broken) reduction(max : max_overlap, max_fraction)
-  for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
-    PairGeometryBlock<kBlock> geometry;
-    list.for_each_pair_block<kBlock>(
-        chunk * kPairPassChunk, std::min(n, (chunk + 1) * kPairPassChunk),
-        [&](std::uint32_t s, std::size_t i, std::size_t j, std::uint32_t k)
-            __attribute__((always_inline)) { geometry.measure(s, p, list, i, j, k); },
-        [&](std::uint32_t s, std::size_t i, std::size_t j, std::uint32_t k)
-            __attribute__((always_inline)) {
-              const PairGeometry g = geometry.at(s);
-              if (!(g.overlap > 0.0) &&
-                  !(kModels && history.joined[k] != 0 &&
-                    g.overlap >
-                        separation_overlap(scene.pair(p.material[i], p.material[j]), g.r_star))) {
-                const std::size_t released =
-                    release_pair<kFriction, kModels>(k, thermal, rolling, out, history);
-                broken += counted == nullptr || counted[i] != 0 ? released : 0;
-                return;
-              }
-              const bool was_bonded = out.bonded[k] != 0;
-              const PairCoefficients& c = scene.pair(p.material[i], p.material[j]);
-              const ContactNormal f =
-                  evaluate_pair<kFriction, kModels>(p, scene, law, c, g, criterion_met(c, i, j, k),
-                                                    i, j, k, thermal, rolling, out, history);
-              max_overlap = std::max(max_overlap, g.overlap);
-              max_fraction = std::max(max_fraction, g.overlap / std::min(p.radius[i], p.radius[j]));
-              if (counted != nullptr && counted[i] == 0) return;
-              formed += f.bonded && !was_bonded ? 1 : 0;
-              broken += !f.bonded && was_bonded ? 1 : 0;
-              ++contacts;
-              bonds += f.bonded ? 1 : 0;
-            });
-  }
-  ContactSummary summary;
-  summary.contacts = contacts;
-  summary.bonds = bonds;
-  summary.bonds_formed = formed;
-  summary.bonds_broken = broken;
-  summary.max_overlap = max_overlap;
-  summary.max_overlap_fraction = max_fraction;
-  return summary;
+  const auto share = [&](int, std::size_t first_chunk, std::size_t end_chunk) {
+    ContactSummary summary;
+    for (std::size_t chunk = first_chunk; chunk < end_chunk; ++chunk) {
+      PairGeometryBlock<kBlock> geometry;
+      list.for_each_pair_block<kBlock>(
+          chunk * kPairPassChunk, std::min(n, (chunk + 1) * kPairPassChunk),
+          [&](std::uint32_t s, std::size_t i, std::size_t j, std::uint32_t k)
+              __attribute__((always_inline)) { geometry.measure(s, p, list, i, j, k); },
+          [&](std::uint32_t s, std::size_t i, std::size_t j, std::uint32_t k)
+              __attribute__((always_inline)) {
+                const PairGeometry g = geometry.at(s);
+                if (!(g.overlap > 0.0) &&
+                    !(kModels && history.joined[k] != 0 &&
+                      g.overlap >
+                          separation_overlap(scene.pair(p.material[i], p.material[j]), g.r_star))) {
+                  const std::size_t released =
+                      release_pair<kFriction, kModels>(k, thermal, rolling, out, history);
+                  summary.bonds_broken += counted == nullptr || counted[i] != 0 ? released : 0;
+                  return;
+                }
+                const bool was_bonded = out.bonded[k] != 0;
+                const PairCoefficients& c = scene.pair(p.material[i], p.material[j]);
+                const ContactNormal f = evaluate_pair<kFriction, kModels>(
+                    p, scene, law, c, g, criterion_met(c, i, j, k), i, j, k, thermal, rolling, out,
+                    history);
+                summary.max_overlap = std::max(summary.max_overlap, g.overlap);
+                summary.max_overlap_fraction = std::max(
+                    summary.max_overlap_fraction, g.overlap / std::min(p.radius[i], p.radius[j]));
+                if (counted != nullptr && counted[i] == 0) return;
+                summary.bonds_formed += f.bonded && !was_bonded ? 1 : 0;
+                summary.bonds_broken += !f.bonded && was_bonded ? 1 : 0;
+                ++summary.contacts;
+                summary.bonds += f.bonded ? 1 : 0;
+              });
+    }
+    return summary;
+  };
+  ThreadSplit equal_shares;
+  if (split == nullptr) split = &equal_shares;
+  split->prepare(chunks, threads_in_use(n));
+  return split->run(ContactSummary{}, share, add_pair_summary);
 }
 
 /// Releases the history of particle i against boundary slot @p slot: no contact there.
@@ -718,87 +725,90 @@ void gather_boundary(Particles& p, const Scene& scene, const Law& law, std::size
 
 /// Pass 2: total force (and, with kFriction, torque) per particle = gravity + own pairs -
 /// transposed pairs + boundaries. The force and moment of each boundary on the particles are
-/// summed exactly per thread into @p wall_loads (kBoundaryLoadValues per thread and boundary):
-/// the caller merges the threads' sums, which are the same bytes for any thread count and any
-/// order of the particles. In thermal runs the same order sums the heat flows into
-/// p.heat_rate: contacts, boundaries held at a temperature, convection and radiation (the laser is
-/// added by the caller). @p frames: every boundary's frame_of at its current pose. kModels as in
-/// compute_pair_forces. With @p counted (as in compute_pair_forces), only the particles marked 1
-/// add to the boundary loads and the boundary contacts; the largest overlaps take every particle.
+/// summed exactly per share of @p split into @p wall_loads (kBoundaryLoadValues per share and
+/// boundary): the caller merges the shares' sums, which are the same bytes for any thread count,
+/// any split and any order of the particles. @p split: the threads' shares of the particles'
+/// blocks, kept across calls and balanced by their measured times. In thermal runs the same order
+/// sums the heat flows into p.heat_rate: contacts, boundaries held at a temperature, convection and
+/// radiation (the laser is added by the caller). @p frames: every boundary's frame_of at its
+/// current pose. kModels as in compute_pair_forces. With @p counted (as in compute_pair_forces),
+/// only the particles marked 1 add to the boundary loads and the boundary contacts; the largest
+/// overlaps take every particle.
 template <bool kFriction, bool kModels, class Law>
 ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborList& list,
                              const std::vector<BoundaryCandidates>& candidates,
                              const std::vector<BoundaryFrame>& frames, const Law& law,
                              const PairForces& pair_forces, std::vector<ExactSum>& wall_loads,
-                             const std::uint8_t* counted = nullptr) {
+                             ThreadSplit& split, const std::uint8_t* counted = nullptr) {
   const std::size_t n = p.size();
   const std::size_t boundaries = scene.boundaries.size();
   const std::size_t blocks = (n + kWallLoadBlock - 1) / kWallLoadBlock;
-  wall_loads.assign(static_cast<std::size_t>(threads_in_use(n)) * boundaries * kBoundaryLoadValues,
+  split.prepare(blocks, threads_in_use(n));
+  wall_loads.assign(static_cast<std::size_t>(split.threads()) * boundaries * kBoundaryLoadValues,
                     ExactSum{});
   const Eigen::Vector3d g = scene.gravity;
-  std::size_t wall_contacts = 0;
-  double max_overlap = 0.0;
-  double max_fraction = 0.0;
-  double thermal_ratio = 0.0;
   const bool thermal = p.thermal();
   const bool rolling = kFriction && !pair_forces.roll_x.empty();
-#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) \
-    reduction(+ : wall_contacts) reduction(max : max_overlap, max_fraction, thermal_ratio)
-  for (std::size_t block = 0; block < blocks; ++block) {
+  const auto share = [&](int share_index, std::size_t first_block, std::size_t end_block) {
+    ContactSummary summary;
     // Without boundaries never written.
-    ExactSum* thread_load = wall_loads.data() + static_cast<std::size_t>(omp_get_thread_num()) *
-                                                    boundaries * kBoundaryLoadValues;
-    BoundaryTally tally;
-    BoundaryTally uncounted;  // of particles another rank counts: only its maxima are kept
+    ExactSum* share_load = wall_loads.data() +
+                           static_cast<std::size_t>(share_index) * boundaries * kBoundaryLoadValues;
     thread_local MeshQueryBuffer buffer;  // reused: mesh queries allocate only while it grows
     thread_local std::vector<ExactSum> uncounted_load;
     if (counted != nullptr) uncounted_load.resize(boundaries * kBoundaryLoadValues);
-    const std::size_t block_begin = block * kWallLoadBlock;
-    const std::size_t block_end = std::min(n, block_begin + kWallLoadBlock);
-    ParticleLoad loads[kWallLoadBlock];
-    gather_pair_range<kFriction>(p, list, pair_forces, g, rolling, thermal, block_begin, block_end,
-                                 loads);
-    for (std::size_t b = 0; b < boundaries; ++b) {
-      gather_boundary<kFriction, kModels>(p, scene, law, b, frames[b], candidates[b], block_begin,
-                                          block_end, thermal, counted, buffer, thread_load,
-                                          uncounted_load.data(), loads, tally, uncounted);
-    }
-    // In locals: a store through the arrays could otherwise alias p's own members.
-    double* __restrict force_x = p.fx.data();
-    double* __restrict force_y = p.fy.data();
-    double* __restrict force_z = p.fz.data();
-    double* __restrict torque_x = p.tx.data();
-    double* __restrict torque_y = p.ty.data();
-    double* __restrict torque_z = p.tz.data();
-    for (std::size_t i = block_begin; i < block_end; ++i) {
-      ParticleLoad& load = loads[i - block_begin];
-      if (thermal) {
-        exchange_with_surroundings(p, scene, i, load);
-        p.heat_rate[i] = load.heat;
-        thermal_ratio =
-            std::max(thermal_ratio,
-                     thermal_step_ratio(scene.time_step, load.conductance, p.inv_heat_capacity[i]));
+    for (std::size_t block = first_block; block < end_block; ++block) {
+      BoundaryTally tally;
+      BoundaryTally uncounted;  // of particles another rank counts: only its maxima are kept
+      const std::size_t block_begin = block * kWallLoadBlock;
+      const std::size_t block_end = std::min(n, block_begin + kWallLoadBlock);
+      ParticleLoad loads[kWallLoadBlock];
+      gather_pair_range<kFriction>(p, list, pair_forces, g, rolling, thermal, block_begin,
+                                   block_end, loads);
+      for (std::size_t b = 0; b < boundaries; ++b) {
+        gather_boundary<kFriction, kModels>(p, scene, law, b, frames[b], candidates[b], block_begin,
+                                            block_end, thermal, counted, buffer, share_load,
+                                            uncounted_load.data(), loads, tally, uncounted);
       }
-      force_x[i] = load.force.x();
-      force_y[i] = load.force.y();
-      force_z[i] = load.force.z();
-      if constexpr (kFriction) {
-        torque_x[i] = load.torque.x();
-        torque_y[i] = load.torque.y();
-        torque_z[i] = load.torque.z();
+      // In locals: a store through the arrays could otherwise alias p's own members.
+      double* __restrict force_x = p.fx.data();
+      double* __restrict force_y = p.fy.data();
+      double* __restrict force_z = p.fz.data();
+      double* __restrict torque_x = p.tx.data();
+      double* __restrict torque_y = p.ty.data();
+      double* __restrict torque_z = p.tz.data();
+      for (std::size_t i = block_begin; i < block_end; ++i) {
+        ParticleLoad& load = loads[i - block_begin];
+        if (thermal) {
+          exchange_with_surroundings(p, scene, i, load);
+          p.heat_rate[i] = load.heat;
+          summary.thermal_step_ratio = std::max(
+              summary.thermal_step_ratio,
+              thermal_step_ratio(scene.time_step, load.conductance, p.inv_heat_capacity[i]));
+        }
+        force_x[i] = load.force.x();
+        force_y[i] = load.force.y();
+        force_z[i] = load.force.z();
+        if constexpr (kFriction) {
+          torque_x[i] = load.torque.x();
+          torque_y[i] = load.torque.y();
+          torque_z[i] = load.torque.z();
+        }
       }
+      summary.wall_contacts += tally.contacts;
+      summary.max_overlap =
+          std::max({summary.max_overlap, tally.max_overlap, uncounted.max_overlap});
+      summary.max_overlap_fraction =
+          std::max({summary.max_overlap_fraction, tally.max_fraction, uncounted.max_fraction});
     }
-    wall_contacts += tally.contacts;
-    max_overlap = std::max({max_overlap, tally.max_overlap, uncounted.max_overlap});
-    max_fraction = std::max({max_fraction, tally.max_fraction, uncounted.max_fraction});
-  }
-  ContactSummary summary;
-  summary.wall_contacts = wall_contacts;
-  summary.max_overlap = max_overlap;
-  summary.max_overlap_fraction = max_fraction;
-  summary.thermal_step_ratio = thermal_ratio;
-  return summary;
+    return summary;
+  };
+  return split.run(ContactSummary{}, share, [](ContactSummary& sum, const ContactSummary& part) {
+    sum.wall_contacts += part.wall_contacts;
+    sum.max_overlap = std::max(sum.max_overlap, part.max_overlap);
+    sum.max_overlap_fraction = std::max(sum.max_overlap_fraction, part.max_overlap_fraction);
+    sum.thermal_step_ratio = std::max(sum.thermal_step_ratio, part.thermal_step_ratio);
+  });
 }
 
 }  // namespace bondem

@@ -670,7 +670,8 @@ constexpr std::size_t kPrefetchParticles = 32768;
 ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const NeighborList& list,
                                 std::span<const LanePairConstants> constants,
                                 const BondingCriterion& criterion_met, PairForces& out,
-                                PairHistory& history, const std::uint8_t* counted) {
+                                PairHistory& history, const std::uint8_t* counted,
+                                ThreadSplit* split) {
   simd_target_in_use();  // chooses the best target on first use
   double shift_x[27], shift_y[27], shift_z[27];
   for (std::size_t code = 0; code < 27; ++code) {
@@ -704,35 +705,18 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
                                    : HWY_DYNAMIC_DISPATCH(LanePassWithoutFriction);
   const std::size_t n = p.size();
   const std::size_t chunks = (n + kPairPassChunk - 1) / kPairPassChunk;
-  std::size_t contacts = 0, bonds = 0, formed = 0, broken = 0;
-  double max_overlap = 0.0, max_fraction = 0.0;
-#pragma omp parallel if (n >= kMinParallelParticles) \
-    reduction(+ : contacts, bonds, formed, broken) reduction(max : max_overlap, max_fraction)
-  {
-    // Each thread one contiguous run of chunks, the share schedule(static) gives it, so that its
-    // rows are the particles its sweeps and pass 2 take.
-    const auto threads = static_cast<std::size_t>(omp_get_num_threads());
-    const auto thread = static_cast<std::size_t>(omp_get_thread_num());
-    const std::size_t share = chunks / threads, extra = chunks % threads;
-    const std::size_t first_chunk = thread * share + std::min(thread, extra);
-    const std::size_t last_chunk = first_chunk + share + (thread < extra ? 1 : 0);
-    const ContactSummary part = pass(args, std::min(n, first_chunk * kPairPassChunk),
-                                     std::min(n, last_chunk * kPairPassChunk));
-    contacts += part.contacts;
-    bonds += part.bonds;
-    formed += part.bonds_formed;
-    broken += part.bonds_broken;
-    max_overlap = std::max(max_overlap, part.max_overlap);
-    max_fraction = std::max(max_fraction, part.max_overlap_fraction);
-  }
-  ContactSummary summary;
-  summary.contacts = contacts;
-  summary.bonds = bonds;
-  summary.bonds_formed = formed;
-  summary.bonds_broken = broken;
-  summary.max_overlap = max_overlap;
-  summary.max_overlap_fraction = max_fraction;
-  return summary;
+  ThreadSplit equal_shares;
+  if (split == nullptr) split = &equal_shares;
+  // Each thread one contiguous run of chunks, so that its rows are about the particles its
+  // sweeps and pass 2 take.
+  split->prepare(chunks, threads_in_use(n));
+  return split->run(
+      ContactSummary{},
+      [&](int, std::size_t first_chunk, std::size_t end_chunk) {
+        return pass(args, std::min(n, first_chunk * kPairPassChunk),
+                    std::min(n, end_chunk * kPairPassChunk));
+      },
+      add_pair_summary);
 }
 
 }  // namespace bondem

@@ -70,10 +70,12 @@ std::vector<LanePairConstants> lane_pair_constants(const Scene& scene);
 
 /// Pass 1 as compute_pair_forces<kFriction = scene.friction, kModels = false> with the Hertz +
 /// bond law, in lanes of the selected target. Requires simd_pass_applies(scene). @p counted as
-/// in compute_pair_forces.
+/// in compute_pair_forces. @p split: the threads' shares of the rows, kept across calls and
+/// balanced by their measured times; null: equal shares.
 ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const NeighborList& list,
                                 std::span<const LanePairConstants> constants,
                                 const BondingCriterion& criterion_met, PairForces& out,
-                                PairHistory& history, const std::uint8_t* counted = nullptr);
+                                PairHistory& history, const std::uint8_t* counted = nullptr,
+                                ThreadSplit* split = nullptr);
 
 }  // namespace bondem

@@ -98,16 +98,17 @@ ContactSummary Stepper::evaluate_forces(const Law& law) {
   // The SIMD pass serves the runs whose every pair has a vector form (lane_constants_ is set).
   const bool lanes = !kModels && std::is_same_v<Law, BondNormalLaw> && !lane_constants_.empty();
   ContactSummary pairs =
-      lanes ? simd_pair_forces(scene_.particles, scene_, list_, lane_constants_, criterion,
-                               pair_forces_, history_, counted)
-            : compute_pair_forces<kFriction, kModels>(scene_.particles, scene_, list_, law,
-                                                      criterion, pair_forces_, history_, counted);
+      lanes
+          ? simd_pair_forces(scene_.particles, scene_, list_, lane_constants_, criterion,
+                             pair_forces_, history_, counted, &pair_split_)
+          : compute_pair_forces<kFriction, kModels>(scene_.particles, scene_, list_, law, criterion,
+                                                    pair_forces_, history_, counted, &pair_split_);
   // The boundaries' frames at their poses of this step, into storage kept across steps.
   boundary_frames_.clear();
   for (const Boundary& boundary : scene_.boundaries) boundary_frames_.push_back(frame_of(boundary));
-  const ContactSummary walls =
-      gather_forces<kFriction, kModels>(scene_.particles, scene_, list_, boundary_candidates_,
-                                        boundary_frames_, law, pair_forces_, wall_loads_, counted);
+  const ContactSummary walls = gather_forces<kFriction, kModels>(
+      scene_.particles, scene_, list_, boundary_candidates_, boundary_frames_, law, pair_forces_,
+      wall_loads_, gather_split_, counted);
   pairs.wall_contacts = walls.wall_contacts;
   pairs.max_overlap = std::max(pairs.max_overlap, walls.max_overlap);
   pairs.max_overlap_fraction = std::max(pairs.max_overlap_fraction, walls.max_overlap_fraction);
@@ -369,14 +370,15 @@ double Stepper::drift(double dt) {
   const SweepArrays arrays = sweep_arrays();
   const std::size_t n = scene_.particles.size();
   const std::size_t chunks = (n + kPairPassChunk - 1) / kPairPassChunk;
-  double largest_sq = 0.0;
   // In runs of chunks per thread, as pass 1 splits its rows.
-#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) reduction(max \
-                                                                                    : largest_sq)
-  for (std::size_t c = 0; c < chunks; ++c) {
-    largest_sq = std::max(largest_sq, opening_sweep(arrays, dt, c * kPairPassChunk,
-                                                    std::min(n, (c + 1) * kPairPassChunk)));
-  }
+  opening_split_.prepare(chunks, threads_in_use(n));
+  const double largest_sq = opening_split_.run(
+      0.0,
+      [&](int, std::size_t first_chunk, std::size_t end_chunk) {
+        return opening_sweep(arrays, dt, first_chunk * kPairPassChunk,
+                             std::min(n, end_chunk * kPairPassChunk));
+      },
+      [](double& largest, double part) { largest = std::max(largest, part); });
   return largest_sq;
 }
 
@@ -385,12 +387,14 @@ bool Stepper::finish_step(double dt) {
   const std::size_t n = p.size();
   const SweepArrays arrays = sweep_arrays();
   const std::size_t chunks = (n + kPairPassChunk - 1) / kPairPassChunk;
-  bool finite = true;
-#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) reduction(&& : finite)
-  for (std::size_t c = 0; c < chunks; ++c) {
-    finite = closing_sweep(arrays, dt, c * kPairPassChunk, std::min(n, (c + 1) * kPairPassChunk)) &&
-             finite;
-  }
+  closing_split_.prepare(chunks, threads_in_use(n));
+  bool finite = closing_split_.run(
+      true,
+      [&](int, std::size_t first_chunk, std::size_t end_chunk) {
+        return closing_sweep(arrays, dt, first_chunk * kPairPassChunk,
+                             std::min(n, end_chunk * kPairPassChunk));
+      },
+      [](bool& all_finite, bool part) { all_finite = all_finite && part; });
   if (p.thermal()) {
     // Forward Euler on m c_p dT/dt = sum Q with the flows of the temperatures at the step's start.
 #pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) reduction(&& : finite)

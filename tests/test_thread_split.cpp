@@ -1,0 +1,72 @@
+// ThreadSplit: the threads' shares of a pass, balanced by measured time.
+#include <gtest/gtest.h>
+
+#include <cstddef>
+#include <vector>
+
+#include "solver/engine/thread_split.hpp"
+
+namespace bondem {
+namespace {
+
+TEST(ThreadSplit, StartsEqualAndCoversEveryChunkOnce) {
+  ThreadSplit split;
+  split.prepare(10, 3);
+  ASSERT_EQ(split.threads(), 3);
+  EXPECT_EQ(split.begin(0), 0u);
+  EXPECT_EQ(split.begin(1), 3u);
+  EXPECT_EQ(split.begin(2), 6u);
+  EXPECT_EQ(split.begin(3), 10u);
+  // Every chunk visited once, whatever team OpenMP gives: the shares' counts add up exactly.
+  std::vector<int> visits(10, 0);
+  const std::size_t total = split.run(
+      std::size_t{0},
+      [&](int, std::size_t first, std::size_t end) {
+        for (std::size_t c = first; c < end; ++c) ++visits[c];
+        return end - first;
+      },
+      [](std::size_t& sum, std::size_t part) { sum += part; });
+  EXPECT_EQ(total, 10u);
+  for (const int v : visits) EXPECT_EQ(v, 1);
+  EXPECT_EQ(split.begin(0), 0u);
+  EXPECT_EQ(split.begin(3), 10u);
+}
+
+TEST(ThreadSplit, MovesTowardEqualTimesByAtMostItsStep) {
+  // 1 280 chunks: the boundary moves by at most 1 280 / 256 = 5 chunks per call. Share 0 takes
+  // three times as long per chunk as share 1: the times are equal with share 0 at 320 chunks.
+  constexpr std::size_t kChunks = 1280;
+  ThreadSplit split;
+  split.prepare(kChunks, 2);
+  std::size_t before = split.begin(1);
+  for (int call = 0; call < 200; ++call) {
+    const double share0 = 3.0 * static_cast<double>(split.begin(1));
+    const double share1 = static_cast<double>(kChunks - split.begin(1));
+    const std::vector<double> seconds{share0, share1};
+    split.rebalance(seconds);
+    const std::size_t now = split.begin(1);
+    EXPECT_LE(now, before);  // toward share 1, never past the balance point
+    EXPECT_LE(before - now, 5u);
+    before = now;
+  }
+  // Half the remaining distance per call once within the step: within a chunk of 320.
+  EXPECT_NEAR(static_cast<double>(split.begin(1)), 320.0, 1.0);
+  EXPECT_EQ(split.begin(2), kChunks);
+}
+
+TEST(ThreadSplit, KeepsTheSplitWithoutTimesAndEveryShareNonEmpty) {
+  ThreadSplit split;
+  split.prepare(8, 2);
+  split.rebalance(std::vector<double>{0.0, 1.0});  // a share measured nothing: no move
+  EXPECT_EQ(split.begin(1), 4u);
+  for (int call = 0; call < 50; ++call) split.rebalance(std::vector<double>{1.0e6, 1.0e-6});
+  EXPECT_EQ(split.begin(1), 1u);  // the slow share keeps one chunk
+  // The same counts keep the balanced split; others start equal again.
+  split.prepare(8, 2);
+  EXPECT_EQ(split.begin(1), 1u);
+  split.prepare(9, 2);
+  EXPECT_EQ(split.begin(1), 4u);
+}
+
+}  // namespace
+}  // namespace bondem
