@@ -1668,7 +1668,8 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
       const bool at_end = step == plan.steps;
       if (step % plan.history_every == 0 || at_end) {
         add_row(step, run.totals());
-        together(keep_last_good);
+        // After the last step no step can blow up: that state is never needed.
+        if (!at_end) together(keep_last_good);
       }
       if (frames && (step % frames->every() == 0 || at_end)) {
         frames->write(*run.part().scene, *run.part().stepper, owns, run.loads());

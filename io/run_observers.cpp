@@ -227,8 +227,11 @@ Particles LastGoodFile::kept() {
 }
 
 void LastGoodFile::after_step(const Simulation& simulation) {
-  // A state is good once its history row is written: every value in it was finite.
-  if (history_.last_row_step() == simulation.step()) keep(simulation.scene().particles);
+  // A state is good once its history row is written: every value in it was finite. After the
+  // last step no step can blow up: that state would never be read.
+  if (history_.last_row_step() == simulation.step() && !simulation.at_end()) {
+    keep(simulation.scene().particles);
+  }
 }
 
 void LastGoodFile::interrupted(const Simulation& simulation, const Interruption& why) {

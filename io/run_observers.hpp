@@ -58,7 +58,8 @@ inline constexpr std::string_view kLastGoodScratch = ".bondem_last_good";
 /// written, raw and in the particles' current order, over a scratch file in @p path's directory
 /// that is unlinked as soon as it is opened (so nothing is left behind, even after a SIGKILL), and
 /// read back only on a blow-up. That saves 64 B a particle of resident memory for one write of as
-/// many bytes per history row (about 12 ms at 10^6 particles).
+/// many bytes per history row but the last (0.1 s at 10^6 particles: eight writes of 8 MB,
+/// 13 ms each).
 class LastGoodFile : public Observer {
  public:
   /// Throws std::runtime_error when the scratch file cannot be opened or written. @p scratch_tag

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "solver/analysis/layer_metrics.hpp"
+#include "solver/engine/exact_sum.hpp"
 
 namespace bondem {
 
@@ -88,24 +89,37 @@ PackingReport analyse_packing(const Particles& p, const NeighborList& list, cons
 
 PackingReport analyse_packing(const Particles& p, const std::vector<int>& contacts,
                               const Box& region, const Domain& domain) {
-  // Sum in id order, so that the result does not depend on how the particles are stored.
-  const std::vector<std::uint32_t> by_id = p.order_by_id();
-
+  // Totals that do not depend on how the particles are stored or on the thread count: an
+  // integer count and an exact sum of the volumes, in any order.
+  const std::size_t n = p.size();
   PackingReport report;
-  double coordination = 0.0;
-  for (const std::size_t i : by_id) {
+  std::size_t coordination = 0;
+  std::size_t centred = 0;
+#pragma omp parallel for schedule(static) if (n >= kMinParallelParticles) \
+    reduction(+ : coordination, centred)
+  for (std::size_t i = 0; i < n; ++i) {
     if (!region.contains(Eigen::Vector3d(p.x[i], p.y[i], p.z[i]))) continue;
-    ++report.particles;
-    coordination += contacts[i];
+    ++centred;
+    coordination += static_cast<std::size_t>(contacts[i]);
   }
+  report.particles = centred;
   report.unmeasured_reason = region_too_small(p, region, report.particles);
   if (!report.unmeasured_reason.empty()) return report;
-  double volume = 0.0;
-  for (const std::size_t i : by_id) {
-    volume += clipped_volume(Eigen::Vector3d(p.x[i], p.y[i], p.z[i]), p.radius[i], region, domain);
+  ExactSum volume;
+#pragma omp parallel if (n >= kMinParallelParticles)
+  {
+    ExactSum part;
+#pragma omp for schedule(static) nowait
+    for (std::size_t i = 0; i < n; ++i) {
+      part.add(
+          clipped_volume(Eigen::Vector3d(p.x[i], p.y[i], p.z[i]), p.radius[i], region, domain));
+    }
+#pragma omp critical(bondem_packing_volume)
+    volume += part;
   }
-  report.solid_fraction = volume / region.volume();
-  report.mean_coordination = coordination / static_cast<double>(report.particles);
+  report.solid_fraction = volume.value() / region.volume();
+  report.mean_coordination =
+      static_cast<double>(coordination) / static_cast<double>(report.particles);
   return report;
 }
 

@@ -44,7 +44,8 @@ struct PackingReport {
 /// volume; and the mean coordination number of the particles centred in it, from @p contacts
 /// (per particle, contact_counts()). Both are left out, with the reason, when the region is empty
 /// or inverted, spans fewer than kMinRegionDiameters mean diameters on an axis, or holds fewer than
-/// kMinRegionParticles centres. Sums run in id order: the result does not depend on particle order.
+/// kMinRegionParticles centres. The totals are exact (a count, an ExactSum of the volumes): the
+/// result does not depend on the particles' order or the thread count.
 PackingReport analyse_packing(const Particles& p, const std::vector<int>& contacts,
                               const Box& region, const Domain& domain);
 

@@ -139,12 +139,19 @@ namespace {
 
 /// Index of the case's fastest particle (0 when none moves).
 std::size_t fastest_particle(const Case& c) {
+  // Each particle read once (a lattice block computes it on every read) and its speed measured
+  // once: the first of the fastest, a NaN never counted faster.
   std::size_t fastest = 0;
-  for (std::size_t i = 1; i < c.particles.size(); ++i) {
+  double fastest_speed = 0.0;
+  std::size_t i = 0;
+  for (const ParticleSpec& particle : c.particles) {
     // stableNorm: a speed of 1e300 is found as such, not as inf.
-    if (c.particles[i].velocity.stableNorm() > c.particles[fastest].velocity.stableNorm()) {
+    const double speed = particle.velocity.stableNorm();
+    if (i == 0 || speed > fastest_speed) {
       fastest = i;
+      fastest_speed = speed;
     }
+    ++i;
   }
   return fastest;
 }
