@@ -88,7 +88,11 @@ class Writer {
       return;
     }
     for (const std::uint32_t i : order) {
-      append(reinterpret_cast<const char*>(values.data() + i * stride), stride * sizeof(T));
+      if (stride == 1) {  // one value: a move of a constant size
+        append(reinterpret_cast<const char*>(values.data() + i), sizeof(T));
+      } else {
+        append(reinterpret_cast<const char*>(values.data() + i * stride), stride * sizeof(T));
+      }
     }
   }
   /// @p values (@p stride a particle of this process's part) as put(values, order, stride) of
@@ -124,9 +128,21 @@ class Writer {
   /// A multiple of 8 (payload_checksum's word).
   static constexpr std::size_t kBufferBytes = std::size_t{1} << 16;
 
-  void append(const char* data, std::size_t size) {
+  [[gnu::always_inline]] void append(const char* data, std::size_t size) {
     size_ += size;
     if (out_ == nullptr) return;
+    if (used_ + size < kBufferBytes) {
+      // Most puts are one value that fits, the buffer not full after it: one move, of a size
+      // known where put() is inlined. A call per value was a fifth of writing a 10^6
+      // checkpoint (3 million pairs of 10 values, 1 million particles by id).
+      std::memcpy(buffer_.data() + used_, data, size);
+      used_ += size;
+      return;
+    }
+    append_filling(data, size);
+  }
+  /// append() where the bytes fill the buffer: flushes each time it is full.
+  [[gnu::noinline]] void append_filling(const char* data, std::size_t size) {
     while (size > 0) {
       const std::size_t room = std::min(size, kBufferBytes - used_);
       std::memcpy(buffer_.data() + used_, data, room);
