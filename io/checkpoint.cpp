@@ -130,7 +130,8 @@ class Writer {
 
   [[gnu::always_inline]] void append(const char* data, std::size_t size) {
     size_ += size;
-    if (out_ == nullptr) return;
+    // An empty array's data() may be null, which memcpy must not see even for no bytes.
+    if (out_ == nullptr || size == 0) return;
     if (used_ + size < kBufferBytes) {
       // Most puts are one value that fits, the buffer not full after it: one move, of a size
       // known where put() is inlined. A call per value was a fifth of writing a 10^6

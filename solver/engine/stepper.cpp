@@ -370,7 +370,7 @@ double Stepper::drift(double dt) {
   const SweepArrays arrays = sweep_arrays();
   const std::size_t n = scene_.particles.size();
   const std::size_t chunks = (n + kPairPassChunk - 1) / kPairPassChunk;
-  // In runs of chunks per thread, as pass 1 splits its rows.
+  // A contiguous run of chunks per thread, moved toward equal times (thread_split.hpp).
   opening_split_.prepare(chunks, threads_in_use(n));
   const double largest_sq = opening_split_.run(
       0.0,
