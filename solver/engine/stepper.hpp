@@ -315,7 +315,7 @@ class Stepper {
   NeighborList list_;
   PairForces pair_forces_;
   PairHistory history_;
-  std::vector<ExactSum> wall_loads_;  ///< per thread and boundary, last evaluation
+  std::vector<ExactSum> wall_loads_;  ///< per share of gather_split_ and boundary, last evaluation
   std::vector<BoundaryCandidates> boundary_candidates_;  ///< per boundary; gathered with every list
   std::vector<BoundaryFrame> boundary_frames_;           ///< per boundary, at the last evaluation
   /// Per material pair, the SIMD pass's constants; empty where the run takes the scalar pass
