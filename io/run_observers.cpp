@@ -272,7 +272,7 @@ void VtkFrames::start(const Simulation& simulation) {
 }
 
 void VtkFrames::after_step(const Simulation& simulation) {
-  if (every_or_last(simulation, every_)) write(simulation.scene(), simulation.stepper());
+  if (reads_state(simulation)) write(simulation.scene(), simulation.stepper());
 }
 
 void VtkFrames::interrupted(const Simulation& simulation, const Interruption& why) {
@@ -340,7 +340,7 @@ CheckpointFile::CheckpointFile(std::string path, std::uint64_t fingerprint, std:
 
 void CheckpointFile::after_step(const Simulation& simulation) {
   // Not at the end: finish() writes that one, after the last step's other outputs.
-  if (simulation.step() % every_ == 0 && !simulation.at_end()) write(simulation);
+  if (reads_state(simulation)) write(simulation);
 }
 
 void CheckpointFile::interrupted(const Simulation& simulation, const Interruption& why) {
@@ -429,7 +429,7 @@ void StateFiles::start(const Simulation& simulation) {
 }
 
 void StateFiles::after_step(const Simulation& simulation) {
-  if (simulation.step() % every_ == 0) write(simulation);
+  if (reads_state(simulation)) write(simulation);
 }
 
 void StateFiles::write(const Simulation& simulation) const {
@@ -464,8 +464,7 @@ void LayerFiles::resume(std::int64_t checkpoint_step) {
 }
 
 void LayerFiles::after_step(const Simulation& simulation) {
-  while (next_ < series_.times.size() &&
-         layer_step(series_.times[next_], time_step_) <= simulation.step()) {
+  while (reads_state(simulation)) {
     const LayerSnapshot layer = measure_series_layer(series_, next_, simulation);
     ++next_;
     write_layer(layer.metrics, (directory_ / layer_file_name(layer.layer)).string());

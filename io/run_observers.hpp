@@ -68,6 +68,10 @@ class LastGoodFile : public Observer {
   LastGoodFile(std::string path, const Particles& particles, const History& history,
                const std::string& scratch_tag = "");
   void after_step(const Simulation& simulation) override;
+  /// At the history's rows.
+  bool reads_state(const Simulation& simulation) const override {
+    return history_.reads_state(simulation);
+  }
   void interrupted(const Simulation& simulation, const Interruption& why) override;
 
   /// Write the kLastGood fields of @p particles over the scratch file, of the rows @p rows in
@@ -108,6 +112,10 @@ class VtkFrames : public Observer {
 
   void start(const Simulation& simulation) override;
   void after_step(const Simulation& simulation) override;
+  /// At its frames' steps.
+  bool reads_state(const Simulation& simulation) const override {
+    return every_or_last(simulation, every_);
+  }
   void interrupted(const Simulation& simulation, const Interruption& why) override;
 
  private:
@@ -134,6 +142,10 @@ class StateFiles : public Observer {
   StateFiles(std::filesystem::path directory, std::int64_t every);
   void start(const Simulation& simulation) override;
   void after_step(const Simulation& simulation) override;
+  /// At its snapshots' steps.
+  bool reads_state(const Simulation& simulation) const override {
+    return simulation.step() % every_ == 0;
+  }
 
  private:
   void write(const Simulation& simulation) const;
@@ -172,6 +184,11 @@ class LayerFiles : public Observer {
   /// steps come). Throws std::runtime_error when layers.csv lacks the kept rows.
   void resume(std::int64_t checkpoint_step);
   void after_step(const Simulation& simulation) override;
+  /// At the steps of layers not measured yet.
+  bool reads_state(const Simulation& simulation) const override {
+    return next_ < series_.times.size() &&
+           layer_step(series_.times[next_], time_step_) <= simulation.step();
+  }
 
  private:
   void write_summary() const;
@@ -191,6 +208,10 @@ class CheckpointFile : public Observer {
   CheckpointFile(std::string path, std::uint64_t fingerprint, std::int64_t every,
                  const History& history);
   void after_step(const Simulation& simulation) override;
+  /// At its checkpoints' steps (the last one is finish()'s).
+  bool reads_state(const Simulation& simulation) const override {
+    return simulation.step() % every_ == 0 && !simulation.at_end();
+  }
   void interrupted(const Simulation& simulation, const Interruption& why) override;
   void finish(const Simulation& simulation) override;
 
@@ -210,6 +231,8 @@ class CheckpointFile : public Observer {
 class EndOfRunFiles : public Observer {
  public:
   EndOfRunFiles(std::filesystem::path directory, const RunAnalysis& analysis);
+  /// Never between steps: it writes at a stop request and at the end.
+  bool reads_state(const Simulation& /*simulation*/) const override { return false; }
   void interrupted(const Simulation& simulation, const Interruption& why) override;
   void finish(const Simulation& simulation) override;
 

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "geometry/boundary.hpp"
 #include "scene_builders.hpp"
 #include "solver/driver/history.hpp"
 #include "solver/driver/simulation.hpp"
@@ -220,6 +221,102 @@ TEST(Simulation, OtherErrorsLeaveRunWithNoFurtherHook) {
   EXPECT_THROW(f.simulation.run(), std::runtime_error);
   EXPECT_EQ(log.back(), "a step 2");
   EXPECT_EQ(f.stepper.step_count(), 2);
+}
+
+/// 400 frictional spheres shaken in a box under gravity, walls all round, their spins and
+/// displacements tracked: every array the sweeps touch changes every step.
+Case frictional_gas() {
+  Case c = testing::soft_case(0.2);
+  c.contact.friction = 0.5;
+  c.gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
+  const double length = 0.009;  // solid fraction 0.29
+  testing::add_random_gas(c, 400, 0.4e-3, 0.6e-3, length, 1.0, 31);
+  for (int axis = 0; axis < 3; ++axis) {
+    for (const double side : {0.0, length}) {
+      Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+      normal[axis] = side == 0.0 ? 1.0 : -1.0;
+      Eigen::Vector3d point = Eigen::Vector3d::Zero();
+      point[axis] = side;
+      c.boundaries.push_back(plane_boundary(point, normal, 0, "wall"));
+    }
+  }
+  return c;
+}
+
+/// Reads the state (positions, velocities, spins, as bytes) every @p every steps only, and
+/// notes whether the stepper's closing kicks were pending at each step it does not read.
+class SparseReader : public Observer {
+ public:
+  explicit SparseReader(std::int64_t every) : every_(every) {}
+  bool reads_state(const Simulation& s) const override { return s.step() % every_ == 0; }
+  void after_step(const Simulation& s) override {
+    if (!reads_state(s)) {
+      pending_steps += s.stepper().closing_pending() ? 1 : 0;
+      return;
+    }
+    const Particles& p = s.scene().particles;
+    for (const auto* field : {&p.x, &p.y, &p.z, &p.vx, &p.vy, &p.vz, &p.wx, &p.wy, &p.wz}) {
+      states.emplace_back(reinterpret_cast<const char*>(field->data()),
+                          field->size() * sizeof(double));
+    }
+  }
+  std::vector<std::string> states;
+  int pending_steps = 0;
+
+ private:
+  std::int64_t every_;
+};
+
+TEST(Simulation, DeferredClosingKicksGiveTheBytesOfSettledSteps) {
+  // Between steps no observer reads, the closing half-kicks wait for the next step's sweep
+  // (Stepper::defer_closing_kicks), which gives both kicks by the same operations: the states
+  // read must be the bytes of a run that settles every step (an observer reading every step).
+  constexpr std::int64_t kSteps = 60;
+  Fixture sparse_run(kSteps, frictional_gas());
+  Fixture settled_run(kSteps, frictional_gas());
+  SparseReader sparse(7), every_step(1);
+  sparse_run.simulation.attach(sparse);
+  settled_run.simulation.attach(every_step);
+  ASSERT_TRUE(sparse_run.simulation.run().finished);
+  ASSERT_TRUE(settled_run.simulation.run().finished);
+  ASSERT_GT(sparse_run.stepper.contacts().contacts, 0u);
+  EXPECT_EQ(sparse.pending_steps, kSteps - kSteps / 7 - 1);  // every step not read but the last
+  EXPECT_EQ(every_step.pending_steps, 0);
+  ASSERT_EQ(sparse.states.size(), 9u * (kSteps / 7));
+  for (std::size_t k = 0; k < sparse.states.size(); ++k) {
+    // every_step read steps 1, 2, ...; sparse steps 7, 14, ...: the same field of step 7 (r + 1).
+    const std::size_t field = k % 9, read = k / 9;
+    EXPECT_EQ(sparse.states[k], every_step.states[9 * (7 * (read + 1) - 1) + field])
+        << "field " << field << " at step " << 7 * (read + 1);
+  }
+  // The last step is always settled.
+  EXPECT_FALSE(sparse_run.stepper.closing_pending());
+  const Particles& a = sparse_run.scene.particles;
+  const Particles& b = settled_run.scene.particles;
+  EXPECT_EQ(std::memcmp(a.vx.data(), b.vx.data(), a.size() * sizeof(double)), 0);
+  EXPECT_EQ(std::memcmp(a.wz.data(), b.wz.data(), a.size() * sizeof(double)), 0);
+}
+
+TEST(Simulation, ABlowUpFoundByTheMergedSweepNamesTheStepItCloses) {
+  // A velocity that is not finite shows at the closing sweep of step 1. Deferred, the merged
+  // sweep of step 2 finds it: the error must still name step 1 and the same particle.
+  const auto blow_up = [](std::int64_t every) {
+    Fixture f(5, frictional_gas());
+    f.scene.particles.vy[3] = std::numeric_limits<double>::quiet_NaN();
+    SparseReader reader(every);
+    f.simulation.attach(reader);
+    const RunEnd end = f.simulation.run();
+    EXPECT_FALSE(f.stepper.closing_pending());
+    return end;
+  };
+  const RunEnd deferred = blow_up(100), settled = blow_up(1);
+  ASSERT_TRUE(deferred.blow_up.has_value());
+  ASSERT_TRUE(settled.blow_up.has_value());
+  EXPECT_STREQ(deferred.blow_up->what(), settled.blow_up->what());
+  EXPECT_NE(std::string(settled.blow_up->what()).find("step 1 "), std::string::npos)
+      << settled.blow_up->what();
+  EXPECT_EQ(deferred.step, 1);
+  EXPECT_EQ(settled.step, 1);
 }
 
 TEST(History, ExactTextIsPrintfsSeventeenDigits) {

@@ -136,7 +136,7 @@ void History::start(const Simulation& simulation) {
 }
 
 void History::after_step(const Simulation& simulation) {
-  if (every_or_last(simulation, every_)) record(simulation);
+  if (reads_state(simulation)) record(simulation);
 }
 
 namespace {

@@ -102,6 +102,10 @@ class History : public Observer {
 
   void start(const Simulation& simulation) override;
   void after_step(const Simulation& simulation) override;
+  /// At the steps it writes a row: every `every` steps and the last.
+  bool reads_state(const Simulation& simulation) const override {
+    return every_or_last(simulation, every_);
+  }
 
  private:
   /// Append the row of the current state. Throws BlowUpError on a value that is not finite.

@@ -90,6 +90,8 @@ std::vector<std::pair<std::uint32_t, std::uint32_t>> bonded_pairs(const Stepper&
 class RunAnalysis : public Observer {
  public:
   explicit RunAnalysis(const Case& description) : description_(description) {}
+  /// Never between steps: it reads at the end.
+  bool reads_state(const Simulation& /*simulation*/) const override { return false; }
   void finish(const Simulation& simulation) override {
     figures_ = analyse_run(description_, simulation);
   }

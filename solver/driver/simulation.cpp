@@ -17,6 +17,13 @@ RunEnd Simulation::run() {
   end.first_step = step();
   // A blow-up is an ending like the others: every observer hears it, then run() returns.
   const auto blown_up = [&](const BlowUpError& error) {
+    if (stepper_.closing_pending()) {
+      // An observer that reads nothing threw: the observers hear of it at a settled state.
+      try {
+        stepper_.settle();
+      } catch (const BlowUpError&) {  // the first error is the one reported
+      }
+    }
     end.step = step();
     end.stopped = StopReason::kBlowUp;
     end.blow_up = error;
@@ -33,9 +40,25 @@ RunEnd Simulation::run() {
   const auto elapsed = [&] {
     return std::chrono::duration<double>(Clock::now() - started).count();
   };
+  // Steps whose end state no observer reads leave their closing half-kicks to the next step's
+  // sweep (Stepper::defer_closing_kicks): the same bytes, one sweep fewer. Every way out of the
+  // loop below sees a settled state.
+  stepper_.defer_closing_kicks(true);
+  struct Undefer {
+    Stepper& stepper;
+    ~Undefer() { stepper.defer_closing_kicks(false); }
+  } undefer{stepper_};
+  const auto state_read = [&] {
+    if (at_end() || (stop_flag_ != nullptr && *stop_flag_ != 0)) return true;
+    for (const Observer* observer : observers_) {
+      if (observer->reads_state(*this)) return true;
+    }
+    return false;
+  };
   while (step() < last_step_) {
     try {
       stepper_.step();
+      if (state_read()) stepper_.settle();
       for (Observer* observer : observers_) observer->after_step(*this);
     } catch (const BlowUpError& error) {
       end.loop_seconds = elapsed();
@@ -43,6 +66,11 @@ RunEnd Simulation::run() {
     }
     if (stop_flag_ != nullptr && *stop_flag_ != 0 && !at_end()) {
       end.loop_seconds = elapsed();
+      try {
+        stepper_.settle();  // the flag may have risen after state_read()
+      } catch (const BlowUpError& error) {
+        return blown_up(error);
+      }
       end.step = step();
       end.stopped = StopReason::kStopRequested;
       interrupt({StopReason::kStopRequested, nullptr});

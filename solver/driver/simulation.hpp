@@ -45,6 +45,11 @@ class Observer {
   virtual void start(const Simulation& /*simulation*/) {}
   /// After each step that completed without a blow-up.
   virtual void after_step(const Simulation& /*simulation*/) {}
+  /// Whether after_step() at the step just taken reads the particles or the stepper's state
+  /// (beyond step and time): only then does run() give the step's closing half-kicks before
+  /// calling it (Stepper::defer_closing_kicks); between others they merge with the next
+  /// step's opening ones. Observers that read at some steps only say which.
+  virtual bool reads_state(const Simulation& /*simulation*/) const { return true; }
   /// The run ends before its last step, for @p why.
   virtual void interrupted(const Simulation& /*simulation*/, const Interruption& /*why*/) {}
   /// The last step is done (after its after_step()). The stepper's per-pair forces are released

@@ -372,6 +372,26 @@ double Stepper::drift(double dt) {
   const std::size_t chunks = (n + kPairPassChunk - 1) / kPairPassChunk;
   // A contiguous run of chunks per thread, moved toward equal times (thread_split.hpp).
   opening_split_.prepare(chunks, threads_in_use(n));
+  if (closing_pending_) {
+    // The last step's closing kicks and this step's opening ones in one sweep; its finite test
+    // is the closing sweep's, of the last step (step_count_ and time_ still name it).
+    closing_pending_ = false;
+    const SweepResult result = opening_split_.run(
+        SweepResult{},
+        [&](int, std::size_t first_chunk, std::size_t end_chunk) {
+          return closing_opening_sweep(arrays, dt, first_chunk * kPairPassChunk,
+                                       std::min(n, end_chunk * kPairPassChunk));
+        },
+        [](SweepResult& all, const SweepResult& part) {
+          all.largest_sq = std::max(all.largest_sq, part.largest_sq);
+          all.finite = all.finite && part.finite;
+        });
+    // The particles listed are those not finite after this drift: the same ones, since a
+    // non-finite position or velocity stays so and a finite one overflowing in one drift is
+    // beyond any run that reaches this test.
+    if (!result.finite) throw diagnose_blow_up(false);
+    return result.largest_sq;
+  }
   const double largest_sq = opening_split_.run(
       0.0,
       [&](int, std::size_t first_chunk, std::size_t end_chunk) {
@@ -472,13 +492,15 @@ void Stepper::complete_step(bool rebuild) {
   // The laser deposits at mid-step, so a beam on for T seconds delivers its power for T seconds
   // to within one step.
   compute_forces(time_ + 0.5 * dt);
-  const bool finite = finish_step(dt);
+  const bool overlap_exceeded = contacts_.max_overlap_fraction > scene_.max_overlap_fraction;
+  // A step that blows up here ends with its closing kicks given, deferred or not.
+  const bool defer = defer_closing_ && !overlap_exceeded && !scene_.particles.thermal();
+  const bool finite = defer || finish_step(dt);
+  closing_pending_ = defer;
   bonds_formed_ += static_cast<std::int64_t>(contacts_.bonds_formed);
   bonds_broken_ += static_cast<std::int64_t>(contacts_.bonds_broken);
   time_ = static_cast<double>(++step_count_) * dt;
-  if (!finite || contacts_.max_overlap_fraction > scene_.max_overlap_fraction) {
-    throw diagnose_blow_up(finite);
-  }
+  if (!finite || overlap_exceeded) throw diagnose_blow_up(finite);
   if (contacts_.thermal_step_ratio > 1.0) {
     std::ostringstream message;
     message << "step " << step_count_ << " (t = " << time_
@@ -488,6 +510,16 @@ void Stepper::complete_step(bool rebuild) {
             << " s or below (or raise specific_heat, lower thermal_conductivity)";
     throw BlowUpError(message.str(), BlowUpCause::kHeat);
   }
+}
+
+void Stepper::defer_closing_kicks(bool defer) {
+  defer_closing_ = defer;
+}
+
+void Stepper::settle() {
+  if (!closing_pending_) return;
+  closing_pending_ = false;
+  if (!finish_step(scene_.time_step)) throw diagnose_blow_up(false);
 }
 
 BlowUpError Stepper::diagnose_blow_up(bool finite) const {
@@ -587,6 +619,7 @@ BlowUpError Stepper::diagnose_deep_boundary(std::ostringstream& message) const {
 }
 
 StepperState Stepper::save_state(SavedArrays arrays) const {
+  if (closing_pending_) throw std::logic_error("Stepper::save_state: settle() first");
   StepperState state;
   state.time = time_;
   state.step = step_count_;

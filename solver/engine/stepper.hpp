@@ -141,6 +141,20 @@ class Stepper {
   /// or a particle was inserted, the forces, the closing half-kicks and the checks of step().
   void complete_step(bool rebuild);
 
+  /// With @p defer, complete_step() leaves the closing half-kicks of a step that did not blow up
+  /// pending, and the next move() gives them in one sweep with its own opening ones (the same
+  /// operations, so the same bytes, with each particle array read and written once per step
+  /// instead of twice). Until settle(), the velocities and spins are then those before the
+  /// closing kicks: whoever reads the state between steps calls settle() first. A
+  /// non-finite value found by the merged sweep throws the BlowUpError of the step it closes.
+  /// Thermal runs never defer (their heat step shares the closing sweep). Off by default.
+  void defer_closing_kicks(bool defer);
+  /// Give the pending closing half-kicks (defer_closing_kicks()), if any; throws BlowUpError
+  /// as complete_step() when a position or velocity is not finite.
+  void settle();
+  /// Whether the last step's closing half-kicks are still pending.
+  bool closing_pending() const { return closing_pending_; }
+
   /// The state to checkpoint together with the particles. With @p arrays kOmitted, the list's
   /// build positions and the pairs' state (StepperState::list.x0..z0 and slips) are left empty: a
   /// writer then streams them from neighbors() and for_each_slip() instead of holding a copy
@@ -337,6 +351,8 @@ class Stepper {
   std::vector<std::int64_t> counted_ids_;  ///< count_only()'s ids, sorted
   bool share_only_ = false;                ///< count_only() was called
   bool insert_here_ = true;                ///< false after insert_elsewhere()
+  bool defer_closing_ = false;             ///< defer_closing_kicks()
+  bool closing_pending_ = false;           ///< the last step's closing kicks are not given yet
   std::vector<std::uint8_t> counted_;      ///< per particle, from counted_ids_ at every build
   std::vector<ParticleTally> streams_;     ///< per scene stream
   std::int64_t next_id_ = 0;               ///< id of the next inserted particle
