@@ -48,7 +48,9 @@ class Observer {
   /// Whether after_step() at the step just taken reads the particles or the stepper's state
   /// (beyond step and time): only then does run() give the step's closing half-kicks before
   /// calling it (Stepper::defer_closing_kicks); between others they merge with the next
-  /// step's opening ones. Observers that read at some steps only say which.
+  /// step's opening ones. Observers that read at some steps only say which. One that reads
+  /// nothing at a step may hear its after_step() before the next step's sweep finds that it
+  /// left a value not finite (interrupted() then follows, naming that step).
   virtual bool reads_state(const Simulation& /*simulation*/) const { return true; }
   /// The run ends before its last step, for @p why.
   virtual void interrupted(const Simulation& /*simulation*/, const Interruption& /*why*/) {}
