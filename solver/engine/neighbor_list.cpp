@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <sstream>
 #include <stdexcept>
 
@@ -157,6 +158,17 @@ void NeighborList::bin(const Particles& p, const Domain& domain, double cell_siz
   cursor_.assign(cell_begin_.begin(), cell_begin_.end() - 1);
   for (std::size_t i = 0; i < n; ++i)
     cell_items_[cursor_[cell_of_[i]]++] = static_cast<std::uint32_t>(i);
+}
+
+void NeighborList::bin_sorted() {
+  // The positions are those bin() saw, so the grid, its strides and each cell's count stay; the
+  // particles of cell c are now [cell_begin_[c], cell_begin_[c + 1]), in their old index order.
+  const std::size_t cell_count = cell_begin_.size() - 1;
+  for (std::size_t c = 0; c < cell_count; ++c) {
+    std::fill(cell_of_.begin() + cell_begin_[c], cell_of_.begin() + cell_begin_[c + 1],
+              static_cast<std::uint32_t>(c));
+  }
+  std::iota(cell_items_.begin(), cell_items_.end(), 0u);
 }
 
 void NeighborList::wrap_and_set_shifts(Particles& p, const Domain& domain) {
@@ -368,7 +380,7 @@ void NeighborList::build(Particles& p, const Domain& domain, double skin, bool r
   bin(p, domain, cell_size);
   if (reorder) {
     p.permute(cell_items_);  // particles sorted by cell: neighbors become neighbors in memory
-    bin(p, domain, cell_size);
+    bin_sorted();
   }
   find_rows(p, domain, skin);
   index_columns(p);

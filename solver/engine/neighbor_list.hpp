@@ -150,6 +150,9 @@ class NeighborList {
   /// Wrap periodic coordinates into the domain and fill the image shift table.
   void wrap_and_set_shifts(Particles& p, const Domain& domain);
   void bin(const Particles& p, const Domain& domain, double cell_size);
+  /// What bin() gives once the particles are permuted by cell_items_: the same grid, each cell's
+  /// particles consecutive in index order, without binning them again.
+  void bin_sorted();
   /// Append particle i's row (pairs with j of larger id within reach, each with its image code),
   /// in search order.
   void search_row(const Particles& p, const Domain& domain, const Eigen::Vector3d& length,
