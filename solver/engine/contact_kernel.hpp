@@ -651,6 +651,34 @@ void gather_pair_range_into(Particles& p, const NeighborList& list, const PairFo
   }
 }
 
+/// Particles from which pass 2 prefetches the pair slots of its next block's transposed rows.
+/// Those slots sit in other particles' rows, three streams per slot array on a lattice: out of
+/// cache more streams than the hardware prefetchers follow (as pass 1's j particles,
+/// kPrefetchParticles in pair_kernel_simd.cpp); in cache the prefetches would be overhead.
+inline constexpr std::size_t kPrefetchSlotsParticles = 32768;
+
+/// Prefetches the force slots (and, with kFriction, the lever terms) of the pairs in which
+/// particles [@p first, @p end) are the second member.
+template <bool kFriction>
+void prefetch_column_slots(const NeighborList& list, const PairForces& pf, std::size_t first,
+                           std::size_t end) {
+  for (std::size_t i = first; i < end; ++i) {
+    list.for_each_pair_of(
+        i, [](std::uint32_t) {},
+        [&](std::uint32_t k) {
+          __builtin_prefetch(pf.fx.data() + k);
+          __builtin_prefetch(pf.fy.data() + k);
+          __builtin_prefetch(pf.fz.data() + k);
+          if constexpr (kFriction) {
+            __builtin_prefetch(pf.cx.data() + k);
+            __builtin_prefetch(pf.cy.data() + k);
+            __builtin_prefetch(pf.cz.data() + k);
+            __builtin_prefetch(pf.overlap.data() + k);
+          }
+        });
+  }
+}
+
 /// Whether some boundary may touch particles [@p first, @p end): a mesh always may, an
 /// analytic boundary where one of them is in its reach (candidates.near, sorted).
 inline bool boundary_within_reach(const Scene& scene,
@@ -790,6 +818,7 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
   const Eigen::Vector3d g = scene.gravity;
   const bool thermal = p.thermal();
   const bool rolling = kFriction && !pair_forces.roll_x.empty();
+  const bool prefetch = n >= kPrefetchSlotsParticles;
   const auto share = [&](int share_index, std::size_t first_block, std::size_t end_block) {
     ContactSummary summary;
     // Without boundaries never written.
@@ -803,6 +832,10 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
       BoundaryTally uncounted;  // of particles another rank counts: only its maxima are kept
       const std::size_t block_begin = block * kWallLoadBlock;
       const std::size_t block_end = std::min(n, block_begin + kWallLoadBlock);
+      if (prefetch && block + 1 < end_block) {
+        prefetch_column_slots<kFriction>(list, pair_forces, block_end,
+                                         std::min(n, block_end + kWallLoadBlock));
+      }
       if (!thermal && !boundary_within_reach(scene, candidates, block_begin, block_end)) {
         if (rolling) {
           gather_pair_range_into<kFriction, true>(p, list, pair_forces, g, block_begin, block_end);
