@@ -231,15 +231,9 @@ Case frictional_gas() {
   c.gravity = Eigen::Vector3d(0.0, 0.0, -9.81);
   const double length = 0.009;  // solid fraction 0.29
   testing::add_random_gas(c, 400, 0.4e-3, 0.6e-3, length, 1.0, 31);
-  for (int axis = 0; axis < 3; ++axis) {
-    for (const double side : {0.0, length}) {
-      Eigen::Vector3d normal = Eigen::Vector3d::Zero();
-      normal[axis] = side == 0.0 ? 1.0 : -1.0;
-      Eigen::Vector3d point = Eigen::Vector3d::Zero();
-      point[axis] = side;
-      c.boundaries.push_back(plane_boundary(point, normal, 0, "wall"));
-    }
-  }
+  const bool closed[6] = {};
+  c.boundaries =
+      box_container(Eigen::Vector3d::Zero(), Eigen::Vector3d::Constant(length), 0, closed);
   return c;
 }
 

@@ -118,7 +118,9 @@ HWY_INLINE hn::Mask<D> close_lanes(D d, const SweepArrays& a, hn::Vec<D> half_dt
 /// both half kicks by the same forces and the same 1/m and 1/I, each by the scalar formula's
 /// operations (so the bytes equal close_lanes then open_lanes), in one pass over the arrays.
 /// Sets @p finite to where the closed step's position and velocity are finite; returns the
-/// squared displacements as open_lanes.
+/// squared displacements as open_lanes. Written out rather than close_lanes then open_lanes:
+/// calling those two took 1 076 perf samples against 611 on the 20 800 lattice (1/m and 1/I
+/// divided twice, every array reloaded), the run 3 % slower.
 template <class D>
 HWY_INLINE hn::Vec<D> close_open_lanes(D d, const SweepArrays& a, hn::Vec<D> dt, hn::Vec<D> half_dt,
                                        std::size_t i, hn::Mask<D>& finite) {
