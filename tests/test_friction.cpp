@@ -4,11 +4,8 @@
 #include <omp.h>
 
 #include <cmath>
-#include <cstring>
-#include <limits>
 
 #include "scene_builders.hpp"
-#include "solver/engine/pair_kernel_simd.hpp"
 #include "solver/engine/scene.hpp"
 #include "solver/engine/stepper.hpp"
 
@@ -151,50 +148,6 @@ TEST(TangentialHistory, ByteIdenticalAtOneAndTwoThreads) {
   const Particles one = run(1);
   const Particles two = run(2);
   EXPECT_TRUE(one.x == two.x && one.vx == two.vx && one.wx == two.wx && one.wz == two.wz);
-}
-
-/// Whether @p a and @p b hold the same bytes (== would take -0 for +0).
-bool same_bytes(const StaggeredVector<double>& a, const StaggeredVector<double>& b) {
-  return a.size() == b.size() &&
-         (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0);
-}
-
-TEST(TangentialHistory, FusedPassesGiveTheBytesOfSeparatePasses) {
-  // Fused, pass 2 gathers each block of particles as soon as pass 1 has evaluated its rows; a
-  // block with a pair in another thread's rows (here every periodic wrap) waits for the end of
-  // pass 1. Gathering a block before one of its records is written would read the record of the
-  // step before: a difference in the first step already.
-  const auto run = [](int threads, std::size_t fuse_from, std::size_t& deferred) {
-    const int saved = omp_get_max_threads();
-    omp_set_num_threads(threads);
-    Scene scene = build_scene(frictional_gas(5));
-    EXPECT_TRUE(simd_pass_applies(scene));
-    Stepper stepper(scene);
-    stepper.fuse_pair_passes_from(fuse_from);
-    deferred = 0;
-    for (int s = 0; s < 300; ++s) {
-      stepper.step();
-      deferred += stepper.deferred_blocks();
-    }
-    omp_set_num_threads(saved);
-    return scene.particles;
-  };
-  std::size_t deferred = 0;
-  const Particles separate = run(1, std::numeric_limits<std::size_t>::max(), deferred);
-  for (const int threads : {1, 2, 3}) {
-    SCOPED_TRACE(threads);
-    const Particles fused = run(threads, 0, deferred);
-    // One thread's share has no earlier share: nothing waits.
-    if (threads == 1) {
-      EXPECT_EQ(deferred, 0U);
-    } else {
-      EXPECT_GT(deferred, 0U);
-    }
-    for (const auto field : {&Particles::x, &Particles::vx, &Particles::wx, &Particles::wz,
-                             &Particles::fx, &Particles::tz}) {
-      EXPECT_TRUE(same_bytes(fused.*field, separate.*field));
-    }
-  }
 }
 
 }  // namespace

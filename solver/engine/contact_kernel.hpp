@@ -813,125 +813,33 @@ void gather_boundary(Particles& p, const Scene& scene, const Law& law, std::size
   load.conductance += exchange.conductance;
 }
 
-/// Pass 2 block by block: total force (and, with kFriction, torque) per particle = gravity + own
-/// pairs - transposed pairs + boundaries, for blocks of kWallLoadBlock particles. A block needs
-/// only the records of its particles' rows and of the rows before them (a transposed pair's first
-/// particle has the smaller index), so it may run as soon as pass 1 has evaluated those rows.
-/// In thermal runs the same order sums the heat flows into p.heat_rate: contacts, boundaries held
-/// at a temperature, convection and radiation (the laser is added by the caller). @p frames:
-/// every boundary's frame_of at its current pose. kModels as in compute_pair_forces. With
-/// @p counted (as in compute_pair_forces), only the particles marked 1 add to the boundary loads
-/// and the boundary contacts; the largest overlaps take every particle.
-template <bool kFriction, bool kModels, class Law>
-struct ForceGather {
-  Particles& p;
-  const Scene& scene;
-  const NeighborList& list;
-  const std::vector<BoundaryCandidates>& candidates;
-  const std::vector<BoundaryFrame>& frames;
-  const Law& law;
-  const PairForces& pair_forces;
-  const std::uint8_t* counted;
-  bool thermal = p.thermal();
-  bool rolling = kFriction && !pair_forces.roll_x.empty();
-  /// Whether the blocks prefetch their successors' transposed records (kPrefetchRecordsParticles).
-  bool prefetch = p.size() >= kPrefetchRecordsParticles;
-
-  /// Blocks of the particles.
-  std::size_t blocks() const { return (p.size() + kWallLoadBlock - 1) / kWallLoadBlock; }
-
-  /// Prefetches what block @p block reads of the transposed rows.
-  void prefetch_block(std::size_t block) const {
-    const std::size_t first = block * kWallLoadBlock;
-    if (first < p.size()) {
-      prefetch_column_records(list, pair_forces, first, std::min(p.size(), first + kWallLoadBlock));
-    }
-  }
-
-  /// Pass 2 of block @p block: its particles' loads into their force (torque, heat) arrays, each
-  /// boundary's force and moment on them into @p share_load (kBoundaryLoadValues per boundary;
-  /// the particles another rank counts into @p uncounted_load), its tallies into @p summary.
-  void gather(std::size_t block, ExactSum* share_load, ExactSum* uncounted_load,
-              MeshQueryBuffer& buffer, ContactSummary& summary) const {
-    const Eigen::Vector3d& g = scene.gravity;
-    const std::size_t block_begin = block * kWallLoadBlock;
-    const std::size_t block_end = std::min(p.size(), block_begin + kWallLoadBlock);
-    if (!thermal && !boundary_within_reach(scene, candidates, block_begin, block_end)) {
-      if (rolling) {
-        gather_pair_range_into<kFriction, true>(p, list, pair_forces, g, block_begin, block_end);
-      } else {
-        gather_pair_range_into<kFriction, false>(p, list, pair_forces, g, block_begin, block_end);
-      }
-      return;
-    }
-    BoundaryTally tally;
-    BoundaryTally uncounted;  // of particles another rank counts: only its maxima are kept
-    ParticleLoad loads[kWallLoadBlock];
-    gather_pair_range<kFriction>(p, list, pair_forces, g, rolling, thermal, block_begin, block_end,
-                                 loads);
-    for (std::size_t b = 0; b < scene.boundaries.size(); ++b) {
-      gather_boundary<kFriction, kModels>(p, scene, law, b, frames[b], candidates[b], block_begin,
-                                          block_end, thermal, counted, buffer, share_load,
-                                          uncounted_load, loads, tally, uncounted);
-    }
-    // In locals: a store through the arrays could otherwise alias p's own members.
-    double* __restrict force_x = p.fx.data();
-    double* __restrict force_y = p.fy.data();
-    double* __restrict force_z = p.fz.data();
-    double* __restrict torque_x = p.tx.data();
-    double* __restrict torque_y = p.ty.data();
-    double* __restrict torque_z = p.tz.data();
-    for (std::size_t i = block_begin; i < block_end; ++i) {
-      ParticleLoad& load = loads[i - block_begin];
-      if (thermal) {
-        exchange_with_surroundings(p, scene, i, load);
-        p.heat_rate[i] = load.heat;
-        summary.thermal_step_ratio =
-            std::max(summary.thermal_step_ratio,
-                     thermal_step_ratio(scene.time_step, load.conductance, p.inv_heat_capacity[i]));
-      }
-      force_x[i] = load.force.x();
-      force_y[i] = load.force.y();
-      force_z[i] = load.force.z();
-      if constexpr (kFriction) {
-        torque_x[i] = load.torque.x();
-        torque_y[i] = load.torque.y();
-        torque_z[i] = load.torque.z();
-      }
-    }
-    summary.wall_contacts += tally.contacts;
-    summary.max_overlap = std::max({summary.max_overlap, tally.max_overlap, uncounted.max_overlap});
-    summary.max_overlap_fraction =
-        std::max({summary.max_overlap_fraction, tally.max_fraction, uncounted.max_fraction});
-  }
-};
-
-/// Adds what pass 2 saw in one share of the blocks, @p part, to @p sum.
-inline void add_gather_summary(ContactSummary& sum, const ContactSummary& part) {
-  sum.wall_contacts += part.wall_contacts;
-  sum.max_overlap = std::max(sum.max_overlap, part.max_overlap);
-  sum.max_overlap_fraction = std::max(sum.max_overlap_fraction, part.max_overlap_fraction);
-  sum.thermal_step_ratio = std::max(sum.thermal_step_ratio, part.thermal_step_ratio);
-}
-
-/// Pass 2 of every block (ForceGather) once pass 1 is complete. The force and moment of each
-/// boundary on the particles are summed exactly per share of @p split into @p wall_loads
-/// (kBoundaryLoadValues per share and boundary): the caller merges the shares' sums, which are the
-/// same bytes for any thread count, any split and any order of the particles. @p split: the
-/// threads' shares of the particles' blocks, kept across calls and balanced by their measured
-/// times.
+/// Pass 2: total force (and, with kFriction, torque) per particle = gravity + own pairs -
+/// transposed pairs + boundaries. The force and moment of each boundary on the particles are
+/// summed exactly per share of @p split into @p wall_loads (kBoundaryLoadValues per share and
+/// boundary): the caller merges the shares' sums, which are the same bytes for any thread count,
+/// any split and any order of the particles. @p split: the threads' shares of the particles'
+/// blocks, kept across calls and balanced by their measured times. In thermal runs the same order
+/// sums the heat flows into p.heat_rate: contacts, boundaries held at a temperature, convection and
+/// radiation (the laser is added by the caller). @p frames: every boundary's frame_of at its
+/// current pose. kModels as in compute_pair_forces. With @p counted (as in compute_pair_forces),
+/// only the particles marked 1 add to the boundary loads and the boundary contacts; the largest
+/// overlaps take every particle.
 template <bool kFriction, bool kModels, class Law>
 ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborList& list,
                              const std::vector<BoundaryCandidates>& candidates,
                              const std::vector<BoundaryFrame>& frames, const Law& law,
                              const PairForces& pair_forces, std::vector<ExactSum>& wall_loads,
                              ThreadSplit& split, const std::uint8_t* counted = nullptr) {
-  const ForceGather<kFriction, kModels, Law> gather{p,      scene, list,        candidates,
-                                                    frames, law,   pair_forces, counted};
+  const std::size_t n = p.size();
   const std::size_t boundaries = scene.boundaries.size();
-  split.prepare(gather.blocks(), threads_in_use(p.size()));
+  const std::size_t blocks = (n + kWallLoadBlock - 1) / kWallLoadBlock;
+  split.prepare(blocks, threads_in_use(n));
   wall_loads.assign(static_cast<std::size_t>(split.threads()) * boundaries * kBoundaryLoadValues,
                     ExactSum{});
+  const Eigen::Vector3d g = scene.gravity;
+  const bool thermal = p.thermal();
+  const bool rolling = kFriction && !pair_forces.roll_x.empty();
+  const bool prefetch = n >= kPrefetchRecordsParticles;
   const auto share = [&](int share_index, std::size_t first_block, std::size_t end_block) {
     ContactSummary summary;
     // Without boundaries never written.
@@ -941,12 +849,69 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
     thread_local std::vector<ExactSum> uncounted_load;
     if (counted != nullptr) uncounted_load.resize(boundaries * kBoundaryLoadValues);
     for (std::size_t block = first_block; block < end_block; ++block) {
-      if (gather.prefetch && block + 1 < end_block) gather.prefetch_block(block + 1);
-      gather.gather(block, share_load, uncounted_load.data(), buffer, summary);
+      BoundaryTally tally;
+      BoundaryTally uncounted;  // of particles another rank counts: only its maxima are kept
+      const std::size_t block_begin = block * kWallLoadBlock;
+      const std::size_t block_end = std::min(n, block_begin + kWallLoadBlock);
+      if (prefetch && block + 1 < end_block) {
+        prefetch_column_records(list, pair_forces, block_end,
+                                std::min(n, block_end + kWallLoadBlock));
+      }
+      if (!thermal && !boundary_within_reach(scene, candidates, block_begin, block_end)) {
+        if (rolling) {
+          gather_pair_range_into<kFriction, true>(p, list, pair_forces, g, block_begin, block_end);
+        } else {
+          gather_pair_range_into<kFriction, false>(p, list, pair_forces, g, block_begin, block_end);
+        }
+        continue;
+      }
+      ParticleLoad loads[kWallLoadBlock];
+      gather_pair_range<kFriction>(p, list, pair_forces, g, rolling, thermal, block_begin,
+                                   block_end, loads);
+      for (std::size_t b = 0; b < boundaries; ++b) {
+        gather_boundary<kFriction, kModels>(p, scene, law, b, frames[b], candidates[b], block_begin,
+                                            block_end, thermal, counted, buffer, share_load,
+                                            uncounted_load.data(), loads, tally, uncounted);
+      }
+      // In locals: a store through the arrays could otherwise alias p's own members.
+      double* __restrict force_x = p.fx.data();
+      double* __restrict force_y = p.fy.data();
+      double* __restrict force_z = p.fz.data();
+      double* __restrict torque_x = p.tx.data();
+      double* __restrict torque_y = p.ty.data();
+      double* __restrict torque_z = p.tz.data();
+      for (std::size_t i = block_begin; i < block_end; ++i) {
+        ParticleLoad& load = loads[i - block_begin];
+        if (thermal) {
+          exchange_with_surroundings(p, scene, i, load);
+          p.heat_rate[i] = load.heat;
+          summary.thermal_step_ratio = std::max(
+              summary.thermal_step_ratio,
+              thermal_step_ratio(scene.time_step, load.conductance, p.inv_heat_capacity[i]));
+        }
+        force_x[i] = load.force.x();
+        force_y[i] = load.force.y();
+        force_z[i] = load.force.z();
+        if constexpr (kFriction) {
+          torque_x[i] = load.torque.x();
+          torque_y[i] = load.torque.y();
+          torque_z[i] = load.torque.z();
+        }
+      }
+      summary.wall_contacts += tally.contacts;
+      summary.max_overlap =
+          std::max({summary.max_overlap, tally.max_overlap, uncounted.max_overlap});
+      summary.max_overlap_fraction =
+          std::max({summary.max_overlap_fraction, tally.max_fraction, uncounted.max_fraction});
     }
     return summary;
   };
-  return split.run(ContactSummary{}, share, add_gather_summary);
+  return split.run(ContactSummary{}, share, [](ContactSummary& sum, const ContactSummary& part) {
+    sum.wall_contacts += part.wall_contacts;
+    sum.max_overlap = std::max(sum.max_overlap, part.max_overlap);
+    sum.max_overlap_fraction = std::max(sum.max_overlap_fraction, part.max_overlap_fraction);
+    sum.thermal_step_ratio = std::max(sum.thermal_step_ratio, part.thermal_step_ratio);
+  });
 }
 
 }  // namespace bondem

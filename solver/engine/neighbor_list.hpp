@@ -15,13 +15,6 @@
 
 namespace bondem {
 
-/// Pair indices [first, end) that hold a set of particles' transposed pairs (first =
-/// pair_count() and end = 0 where there are none).
-struct TransposedPairs {
-  std::uint32_t first;
-  std::uint32_t end;
-};
-
 /// What a neighbor list needs to be rebuilt exactly as it was: the positions of its last build.
 struct NeighborListState {
   std::int64_t builds = 0;
@@ -138,16 +131,6 @@ class NeighborList {
     for (std::uint32_t c = column_begin_[i]; c < column_begin_[i + 1]; ++c) {
       as_second(column_pair_[c]);
     }
-  }
-
-  /// The range of the pairs in which a particle of [@p first, @p end) is the second member.
-  TransposedPairs transposed_pairs(std::size_t first, std::size_t end) const {
-    TransposedPairs range{static_cast<std::uint32_t>(pair_count()), 0};
-    for (std::uint32_t c = column_begin_[first]; c < column_begin_[end]; ++c) {
-      range.first = std::min(range.first, column_pair_[c]);
-      range.end = std::max(range.end, column_pair_[c] + 1);
-    }
-    return range;
   }
 
   /// x_j - x_i of pair k, with the periodic image of j that the list sees from i.

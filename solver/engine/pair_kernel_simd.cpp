@@ -39,8 +39,6 @@ struct LanePassArgs {
   const std::uint8_t* counted;
   /// Whether each block prefetches the next block's j particles (kPrefetchParticles).
   bool prefetch;
-  /// Told as each share's rows complete; null: not told.
-  const RowsDone* rows_done;
 };
 }  // namespace bondem::detail
 #endif
@@ -508,7 +506,7 @@ HWY_INLINE bool none_set(const std::uint8_t* flags, std::uint32_t count) {
 /// the scalar pass) restarted the blocks at every chunk and ran 2 % slower on the 20 800 peer
 /// lattice (5 alternating runs).
 template <bool kFriction>
-ContactSummary LanePass(const detail::LanePassArgs& a, int share, std::size_t first_row,
+ContactSummary LanePass(const detail::LanePassArgs& a, std::size_t first_row,
                         std::size_t last_row) {
   const hn::ScalableTag<double> d;
   const std::uint32_t lanes = static_cast<std::uint32_t>(hn::Lanes(d));
@@ -518,16 +516,10 @@ ContactSummary LanePass(const detail::LanePassArgs& a, int share, std::size_t fi
   LaneTally tally;
   ContactSummary summary;
   std::size_t row = first_row;
-  std::size_t notify_at = first_row + 1;  // rows_done is told when row reaches it
   const std::uint32_t pairs_end = row_begin[last_row];
   for (std::uint32_t block = row_begin[first_row]; block < pairs_end; block += kLaneBlock) {
     const std::uint32_t count = std::min(pairs_end - block, kLaneBlock);
     while (row_begin[row + 1] <= block) ++row;
-    // Every row below the one of this block's first pair is evaluated: told once per chunk.
-    if (a.rows_done != nullptr && row >= notify_at) {
-      a.rows_done->call(a.rows_done->context, share, row);
-      notify_at = (row / kPairPassChunk + 1) * kPairPassChunk;
-    }
     for (std::uint32_t s = 0;;) {
       const std::uint32_t row_end = std::min(row_begin[row + 1] - block, count);
       broadcast_row<kFriction>(*a.particles, b, static_cast<std::uint32_t>(row), s, row_end);
@@ -588,7 +580,6 @@ ContactSummary LanePass(const detail::LanePassArgs& a, int share, std::size_t fi
       summary.bonds_broken += now < before ? 1 : 0;
     }
   }
-  if (a.rows_done != nullptr) a.rows_done->call(a.rows_done->context, share, last_row);
   summary.contacts = tally.contacts;
   summary.bonds = tally.bonds;
   summary.max_overlap = tally.max_overlap;
@@ -596,13 +587,13 @@ ContactSummary LanePass(const detail::LanePassArgs& a, int share, std::size_t fi
   return summary;
 }
 
-ContactSummary LanePassWithFriction(const detail::LanePassArgs& a, int share, std::size_t first_row,
+ContactSummary LanePassWithFriction(const detail::LanePassArgs& a, std::size_t first_row,
                                     std::size_t last_row) {
-  return LanePass<true>(a, share, first_row, last_row);
+  return LanePass<true>(a, first_row, last_row);
 }
-ContactSummary LanePassWithoutFriction(const detail::LanePassArgs& a, int share,
-                                       std::size_t first_row, std::size_t last_row) {
-  return LanePass<false>(a, share, first_row, last_row);
+ContactSummary LanePassWithoutFriction(const detail::LanePassArgs& a, std::size_t first_row,
+                                       std::size_t last_row) {
+  return LanePass<false>(a, first_row, last_row);
 }
 
 }  // namespace bondem::HWY_NAMESPACE
@@ -732,7 +723,7 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
                                 std::span<const LanePairConstants> constants,
                                 const BondingCriterion& criterion_met, PairForces& out,
                                 PairHistory& history, const std::uint8_t* counted,
-                                ThreadSplit* split, const RowsDone* rows_done) {
+                                ThreadSplit* split) {
   simd_target_in_use();  // chooses the best target on first use
   double shift_x[27], shift_y[27], shift_z[27];
   for (std::size_t code = 0; code < 27; ++code) {
@@ -761,8 +752,7 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
                                   shift_y,
                                   shift_z,
                                   counted,
-                                  p.size() >= kPrefetchParticles,
-                                  rows_done};
+                                  p.size() >= kPrefetchParticles};
   const auto pass = scene.friction ? HWY_DYNAMIC_DISPATCH(LanePassWithFriction)
                                    : HWY_DYNAMIC_DISPATCH(LanePassWithoutFriction);
   const std::size_t n = p.size();
@@ -774,8 +764,8 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
   split->prepare(chunks, threads_in_use(n));
   return split->run(
       ContactSummary{},
-      [&](int share, std::size_t first_chunk, std::size_t end_chunk) {
-        return pass(args, share, std::min(n, first_chunk * kPairPassChunk),
+      [&](int, std::size_t first_chunk, std::size_t end_chunk) {
+        return pass(args, std::min(n, first_chunk * kPairPassChunk),
                     std::min(n, end_chunk * kPairPassChunk));
       },
       add_pair_summary);

@@ -68,24 +68,14 @@ struct LanePairConstants {
 /// The lane constants of every material pair of @p scene, in pair_table order.
 std::vector<LanePairConstants> lane_pair_constants(const Scene& scene);
 
-/// What the SIMD pass tells as each share of its rows completes, so that pass 2 can gather the
-/// particles whose pairs are all evaluated while their records are still in cache (a fused pass).
-struct RowsDone {
-  /// Called by the thread of share @p share (of the pass's split) with @p rows: every row of the
-  /// share below @p rows is evaluated; last with the share's end.
-  void (*call)(void* context, int share, std::size_t rows) = nullptr;
-  void* context = nullptr;
-};
-
 /// Pass 1 as compute_pair_forces<kFriction = scene.friction, kModels = false> with the Hertz +
 /// bond law, in lanes of the selected target. Requires simd_pass_applies(scene). @p counted as
 /// in compute_pair_forces. @p split: the threads' shares of the rows, kept across calls and
-/// balanced by their measured times; null: equal shares. @p rows_done: told as the shares' rows
-/// complete; null: not told.
+/// balanced by their measured times; null: equal shares.
 ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const NeighborList& list,
                                 std::span<const LanePairConstants> constants,
                                 const BondingCriterion& criterion_met, PairForces& out,
                                 PairHistory& history, const std::uint8_t* counted = nullptr,
-                                ThreadSplit* split = nullptr, const RowsDone* rows_done = nullptr);
+                                ThreadSplit* split = nullptr);
 
 }  // namespace bondem

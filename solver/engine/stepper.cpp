@@ -95,37 +95,20 @@ ContactSummary Stepper::evaluate_forces(const Law& law) {
   const BondingCriterion criterion{scene_.particles, pair_forces_.bonded,
                                    pair_flag_ ? &pair_flag_ : nullptr};
   const std::uint8_t* counted = counted_.empty() ? nullptr : counted_.data();
+  // The SIMD pass serves the runs whose every pair has a vector form (lane_constants_ is set).
+  const bool lanes = !kModels && std::is_same_v<Law, BondNormalLaw> && !lane_constants_.empty();
+  ContactSummary pairs =
+      lanes
+          ? simd_pair_forces(scene_.particles, scene_, list_, lane_constants_, criterion,
+                             pair_forces_, history_, counted, &pair_split_)
+          : compute_pair_forces<kFriction, kModels>(scene_.particles, scene_, list_, law, criterion,
+                                                    pair_forces_, history_, counted, &pair_split_);
   // The boundaries' frames at their poses of this step, into storage kept across steps.
   boundary_frames_.clear();
   for (const Boundary& boundary : scene_.boundaries) boundary_frames_.push_back(frame_of(boundary));
-  // The SIMD pass serves the runs whose every pair has a vector form (lane_constants_ is set);
-  // in an undecomposed run out of cache pass 2 follows it block by block (fused_pair_passes.hpp).
-  constexpr bool kLaneLaw = !kModels && std::is_same_v<Law, BondNormalLaw>;
-  const bool lanes = kLaneLaw && !lane_constants_.empty();
-  const bool fused = lanes && counted == nullptr && scene_.particles.size() >= fuse_from_;
-  ContactSummary pairs;
-  ContactSummary walls;
-  if constexpr (kLaneLaw) {
-    if (fused) {
-      const ForceGather<kFriction, false, Law> gather{scene_.particles,     scene_,           list_,
-                                                      boundary_candidates_, boundary_frames_, law,
-                                                      pair_forces_,         nullptr};
-      const FusedSummary seen = fused_pair_passes(gather, lane_constants_, criterion, pair_forces_,
-                                                  history_, pair_split_, wall_loads_, fused_state_);
-      pairs = seen.pairs;
-      walls = seen.walls;
-    }
-  }
-  if (!fused) {
-    pairs = lanes ? simd_pair_forces(scene_.particles, scene_, list_, lane_constants_, criterion,
-                                     pair_forces_, history_, counted, &pair_split_)
-                  : compute_pair_forces<kFriction, kModels>(scene_.particles, scene_, list_, law,
-                                                            criterion, pair_forces_, history_,
-                                                            counted, &pair_split_);
-    walls = gather_forces<kFriction, kModels>(scene_.particles, scene_, list_, boundary_candidates_,
-                                              boundary_frames_, law, pair_forces_, wall_loads_,
-                                              gather_split_, counted);
-  }
+  const ContactSummary walls = gather_forces<kFriction, kModels>(
+      scene_.particles, scene_, list_, boundary_candidates_, boundary_frames_, law, pair_forces_,
+      wall_loads_, gather_split_, counted);
   pairs.wall_contacts = walls.wall_contacts;
   pairs.max_overlap = std::max(pairs.max_overlap, walls.max_overlap);
   pairs.max_overlap_fraction = std::max(pairs.max_overlap_fraction, walls.max_overlap_fraction);

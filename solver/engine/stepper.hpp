@@ -14,7 +14,6 @@
 #include "solver/engine/boundary_candidates.hpp"
 #include "solver/engine/contact_kernel.hpp"
 #include "solver/engine/exact_sum.hpp"
-#include "solver/engine/fused_pair_passes.hpp"
 #include "solver/engine/neighbor_list.hpp"
 #include "solver/engine/pair_kernel_simd.hpp"
 #include "solver/engine/particle_sweeps_simd.hpp"
@@ -150,11 +149,6 @@ class Stepper {
   /// non-finite value found by the merged sweep throws the BlowUpError of the step it closes.
   /// Thermal runs never defer (their heat step shares the closing sweep). Off by default.
   void defer_closing_kicks(bool defer);
-  /// Fuse the pair passes (fused_pair_passes.hpp) in runs of at least @p particles particles
-  /// that take the SIMD pass undecomposed (default kFusedPassParticles): the same bytes either way.
-  void fuse_pair_passes_from(std::size_t particles) { fuse_from_ = particles; }
-  /// Blocks of pass 2 that the last fused evaluation deferred to the end of pass 1.
-  std::size_t deferred_blocks() const { return fused_state_.deferred.size(); }
   /// Give the pending closing half-kicks (defer_closing_kicks()), if any; throws BlowUpError
   /// as complete_step() when a position or velocity is not finite.
   void settle();
@@ -335,9 +329,7 @@ class Stepper {
   NeighborList list_;
   PairForces pair_forces_;
   PairHistory history_;
-  /// Per share (of gather_split_, or of pair_split_ where the passes are fused) and boundary, the
-  /// last evaluation's boundary loads.
-  std::vector<ExactSum> wall_loads_;
+  std::vector<ExactSum> wall_loads_;  ///< per share of gather_split_ and boundary, last evaluation
   std::vector<BoundaryCandidates> boundary_candidates_;  ///< per boundary; gathered with every list
   std::vector<BoundaryFrame> boundary_frames_;           ///< per boundary, at the last evaluation
   /// Per material pair, the SIMD pass's constants; empty where the run takes the scalar pass
@@ -345,7 +337,6 @@ class Stepper {
   std::vector<LanePairConstants> lane_constants_;
   /// Each pass's shares of the particles per thread, balanced by measured time (thread_split.hpp).
   ThreadSplit opening_split_, pair_split_, gather_split_, closing_split_;
-  FusedPassState fused_state_;  ///< the fused passes' progress per share (fused_pair_passes.hpp)
   ContactSummary contacts_;
   double time_ = 0.0;
   std::int64_t step_count_ = 0;
@@ -357,16 +348,15 @@ class Stepper {
   std::optional<LaserAgreement> laser_agreement_;  ///< share_laser()'s
   double laser_power_ = 0.0;                       ///< absorbed in the last evaluation [W]
   double laser_missed_power_ = 0.0;
-  std::vector<std::int64_t> counted_ids_;        ///< count_only()'s ids, sorted
-  bool share_only_ = false;                      ///< count_only() was called
-  bool insert_here_ = true;                      ///< false after insert_elsewhere()
-  bool defer_closing_ = false;                   ///< defer_closing_kicks()
-  std::size_t fuse_from_ = kFusedPassParticles;  ///< fuse_pair_passes_from()
-  bool closing_pending_ = false;        ///< the last step's closing kicks are not given yet
-  std::vector<std::uint8_t> counted_;   ///< per particle, from counted_ids_ at every build
-  std::vector<ParticleTally> streams_;  ///< per scene stream
-  std::int64_t next_id_ = 0;            ///< id of the next inserted particle
-  ParticleTally removed_;               ///< particles removed outside the domain so far
+  std::vector<std::int64_t> counted_ids_;  ///< count_only()'s ids, sorted
+  bool share_only_ = false;                ///< count_only() was called
+  bool insert_here_ = true;                ///< false after insert_elsewhere()
+  bool defer_closing_ = false;             ///< defer_closing_kicks()
+  bool closing_pending_ = false;           ///< the last step's closing kicks are not given yet
+  std::vector<std::uint8_t> counted_;      ///< per particle, from counted_ids_ at every build
+  std::vector<ParticleTally> streams_;     ///< per scene stream
+  std::int64_t next_id_ = 0;               ///< id of the next inserted particle
+  ParticleTally removed_;                  ///< particles removed outside the domain so far
 };
 
 template <class Visit>
