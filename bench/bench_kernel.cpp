@@ -104,7 +104,7 @@ void pair_pass(benchmark::State& state, bool bonded, double alpha) {
         simd ? simd_pair_forces(scene.particles, scene, list, constants, criterion, forces, history)
              : compute_pair_forces<kFriction, false>(scene.particles, scene, list, law, criterion,
                                                      forces, history);
-    benchmark::DoNotOptimize(forces.records.data());
+    benchmark::DoNotOptimize(forces.fx.data());
   }
   if (bonded && summary.bonds != summary.contacts) state.SkipWithError("pairs are not bonded");
   const auto contacts = static_cast<double>(summary.contacts);

@@ -3,7 +3,7 @@
 /// Force kernels: evaluate the laws per candidate pair and per wall, then gather per particle.
 ///
 /// Race-free and thread-count independent without atomics: pass 1 writes each pair's force into
-/// its own record; pass 2 sums, for each particle, its own row then its transposed row, in list
+/// its own slot; pass 2 sums, for each particle, its own row then its transposed row, in list
 /// order. Every particle's sum therefore has one fixed order whatever the thread count.
 ///
 /// The kernels loop, gather each contact's data, call the laws of solver/models/ and store what
@@ -54,49 +54,29 @@ struct ContactSummary {
   double thermal_step_ratio = 0.0;
 };
 
-/// Per-pair forces on the first particle of each pair, one record per neighbor-list entry.
+/// Per-pair forces on the first particle of each pair, one slot per neighbor-list entry.
 ///
 /// Torques are stored in 4 values per pair, not 6: the tangential force F_t acts at the middle of
 /// the overlap, at lever pair_lever(r, delta) from either centre, so both torques are (lever
 /// length) x (n x F_t) (contact_point.hpp). Pass 2 multiplies n x F_t by its own particle's lever.
 /// Rolling torque (+ on i, - on j) takes 3 more only where the scene has rolling resistance.
-///
-/// What pass 2 reads of a pair sits in one record of `stride` values, F then (with torques)
-/// delta and n x F_t: a pair's values are on one or two cache lines instead of one line per
-/// value, and a row's pairs stream through one array (the transposed rows through a few).
 struct PairForces {
-  static constexpr std::size_t kForce = 0;         ///< F_x, F_y, F_z: the force on i [N]
-  static constexpr std::size_t kOverlap = 3;       ///< delta, which shortens both levers (torques)
-  static constexpr std::size_t kPerLever = 4;      ///< n x F_t: torque per metre of lever (torques)
-  static constexpr std::size_t kForceStride = 3;   ///< record without torques
-  static constexpr std::size_t kTorqueStride = 7;  ///< record with torques
-  std::size_t stride = kForceStride;
-  StaggeredVector<double> records;       ///< pair k's values at [k stride, (k + 1) stride)
+  StaggeredVector<double> fx, fy, fz;
   StaggeredVector<std::uint8_t> bonded;  ///< 1 where the pair is on the adhesive branch
+  StaggeredVector<double> cx, cy, cz;    ///< n x F_t: torque per metre of lever (friction)
+  StaggeredVector<double> overlap;       ///< delta, which shortens both levers (friction)
   StaggeredVector<double> roll_x, roll_y, roll_z;  ///< rolling torque on i (rolling resistance)
   StaggeredVector<double> heat;                    ///< heat flow into i [W] (thermal runs)
   StaggeredVector<double> conductance;             ///< contact conductance H [W/K] (thermal runs)
-
-  /// Pairs with records.
-  std::size_t pairs() const { return records.size() / stride; }
-  /// Pair k's record.
-  double* record(std::size_t k) { return records.data() + k * stride; }
-  const double* record(std::size_t k) const { return records.data() + k * stride; }
-  /// The force on the first particle of pair k.
-  Eigen::Vector3d force(std::size_t k) const {
-    const double* r = record(k) + kForce;
-    return {r[0], r[1], r[2]};
-  }
-  /// Records for @p pairs pairs. The bond flags keep their values (carry_pairs fills them first);
-  /// the other values are written by every pass 1, so a new size starts them at zero (in
-  /// parallel).
+  /// Slots for @p pairs pairs. The bond flags keep their values (carry_pairs fills them first);
+  /// the other slots are written by every pass 1, so a new size starts them at zero (in parallel).
   void resize(std::size_t pairs, bool torques, bool rolling, bool thermal) {
-    const auto size = [](StaggeredVector<double>& values, std::size_t count) {
-      if (values.size() != count) assign_zeros(values, count);
+    const auto size = [](StaggeredVector<double>& slots, std::size_t count) {
+      if (slots.size() != count) assign_zeros(slots, count);
     };
-    stride = torques ? kTorqueStride : kForceStride;
-    size(records, pairs * stride);
+    for (StaggeredVector<double>* f : {&fx, &fy, &fz}) size(*f, pairs);
     bonded.resize(pairs);
+    for (StaggeredVector<double>* t : {&cx, &cy, &cz, &overlap}) size(*t, torques ? pairs : 0);
     for (StaggeredVector<double>* t : {&roll_x, &roll_y, &roll_z}) {
       size(*t, torques && rolling ? pairs : 0);
     }
@@ -161,12 +141,12 @@ struct PairGeometryBlock {
 template <bool kFriction, bool kModels>
 [[gnu::always_inline]] inline std::size_t release_pair(std::uint32_t k, bool thermal, bool rolling,
                                                        PairForces& out, PairHistory& history) {
-  double* record = out.record(k);
-  for (std::size_t v = 0; v < out.stride; ++v) record[v] = 0.0;
+  out.fx[k] = out.fy[k] = out.fz[k] = 0.0;
   const std::size_t lost = out.bonded[k];
   out.bonded[k] = 0;
   if (thermal) out.heat[k] = out.conductance[k] = 0.0;
   if constexpr (kFriction) {
+    out.cx[k] = out.cy[k] = out.cz[k] = out.overlap[k] = 0.0;
     if (rolling) out.roll_x[k] = out.roll_y[k] = out.roll_z[k] = 0.0;
     history.sx[k] = history.sy[k] = history.sz[k] = 0.0;
   }
@@ -178,7 +158,7 @@ template <bool kFriction, bool kModels>
 }
 
 /// Friction and rolling resistance of contact k = (i, j) with normal part @p n: adds the
-/// tangential force to record k, stores its torque per lever, the overlap and the rolling torque,
+/// tangential force to slot k, stores its torque per lever, the overlap and the rolling torque,
 /// and updates the springs in @p history.
 template <bool kModels, class Law>
 [[gnu::always_inline]] inline void pair_friction(const Particles& p, const Scene& scene,
@@ -211,15 +191,14 @@ template <bool kModels, class Law>
     history.ry[k] = rolling_spring.y();
     history.rz[k] = rolling_spring.z();
   }
-  double* record = out.record(k);
-  record[PairForces::kForce] += t.force.x();
-  record[PairForces::kForce + 1] += t.force.y();
-  record[PairForces::kForce + 2] += t.force.z();
+  out.fx[k] += t.force.x();
+  out.fy[k] += t.force.y();
+  out.fz[k] += t.force.z();
   const Eigen::Vector3d per_lever = torque_per_lever(normal, t.force);
-  record[PairForces::kPerLever] = per_lever.x();
-  record[PairForces::kPerLever + 1] = per_lever.y();
-  record[PairForces::kPerLever + 2] = per_lever.z();
-  record[PairForces::kOverlap] = g.overlap;
+  out.cx[k] = per_lever.x();
+  out.cy[k] = per_lever.y();
+  out.cz[k] = per_lever.z();
+  out.overlap[k] = g.overlap;
   if (!rolling) return;
   out.roll_x[k] = t.rolling_torque.x();
   out.roll_y[k] = t.rolling_torque.y();
@@ -228,7 +207,7 @@ template <bool kModels, class Law>
 
 /// Contact k = (i, j) of pass 1 (in contact, or a JKR contact that still holds): the pair's
 /// contact model, the contact's heat flow in thermal runs and, with kFriction, friction and
-/// rolling; results stored in record k.
+/// rolling; results stored in slot k.
 template <bool kFriction, bool kModels, class Law>
 [[gnu::always_inline]] inline ContactNormal evaluate_pair(
     const Particles& p, const Scene& scene, const Law& law, const PairCoefficients& coefficients,
@@ -239,10 +218,9 @@ template <bool kFriction, bool kModels, class Law>
   const auto pair = law.pair(coefficients, g.r_star, g.m_star);
   const ContactNormal f = contact_normal<kModels>(law, coefficients, pair, g.r_star, g.m_star,
                                                   g.overlap, overlap_rate, criterion_met);
-  double* record = out.record(k);
-  record[PairForces::kForce] = f.force * g.nx;
-  record[PairForces::kForce + 1] = f.force * g.ny;
-  record[PairForces::kForce + 2] = f.force * g.nz;
+  out.fx[k] = f.force * g.nx;
+  out.fy[k] = f.force * g.ny;
+  out.fz[k] = f.force * g.nz;
   out.bonded[k] = f.bonded ? 1 : 0;
   if constexpr (kModels) history.joined[k] = f.joined ? 1 : 0;
   if (thermal) {
@@ -601,20 +579,14 @@ template <bool kFriction, bool kRolling, bool kThermal>
   double tx = load.torque.x(), ty = load.torque.y(), tz = load.torque.z();
   double heat = load.heat, conductance = load.conductance;
   const double radius = p.radius[i];
-  // In locals: a store into the sums could otherwise alias pf's members, read again per pair.
-  const double* __restrict records = pf.records.data();
-  const std::size_t stride = kFriction ? PairForces::kTorqueStride : PairForces::kForceStride;
   const auto add_pair = [&](std::uint32_t k, double sign) __attribute__((always_inline)) {
-    const double* __restrict record = records + k * stride;
     // sign is +1 or -1: a multiplication by it is exact, so the sums equal += and -=.
-    fx += sign * record[PairForces::kForce];
-    fy += sign * record[PairForces::kForce + 1];
-    fz += sign * record[PairForces::kForce + 2];
+    fx += sign * pf.fx[k];
+    fy += sign * pf.fy[k];
+    fz += sign * pf.fz[k];
     if constexpr (kFriction) {
-      const double* per_lever = record + PairForces::kPerLever;
-      const Eigen::Vector3d torque =
-          lever_torque(pair_lever(radius, record[PairForces::kOverlap]),
-                       Eigen::Vector3d(per_lever[0], per_lever[1], per_lever[2]));
+      const Eigen::Vector3d torque = lever_torque(pair_lever(radius, pf.overlap[k]),
+                                                  Eigen::Vector3d(pf.cx[k], pf.cy[k], pf.cz[k]));
       tx += torque.x();
       ty += torque.y();
       tz += torque.z();
@@ -679,23 +651,30 @@ void gather_pair_range_into(Particles& p, const NeighborList& list, const PairFo
   }
 }
 
-/// Particles from which pass 2 prefetches the pair records of its next block's transposed rows.
-/// Those records sit in other particles' rows, three streams on a lattice; out of cache the
-/// prefetches hide their latency; in cache they would be overhead.
-inline constexpr std::size_t kPrefetchRecordsParticles = 32768;
+/// Particles from which pass 2 prefetches the pair slots of its next block's transposed rows.
+/// Those slots sit in other particles' rows, three streams per slot array on a lattice: out of
+/// cache more streams than the hardware prefetchers follow (as pass 1's j particles,
+/// kPrefetchParticles in pair_kernel_simd.cpp); in cache the prefetches would be overhead.
+inline constexpr std::size_t kPrefetchSlotsParticles = 32768;
 
-/// Prefetches the records of the pairs in which particles [@p first, @p end) are the second
-/// member.
-inline void prefetch_column_records(const NeighborList& list, const PairForces& pf,
-                                    std::size_t first, std::size_t end) {
+/// Prefetches the force slots (and, with kFriction, the lever terms) of the pairs in which
+/// particles [@p first, @p end) are the second member.
+template <bool kFriction>
+void prefetch_column_slots(const NeighborList& list, const PairForces& pf, std::size_t first,
+                           std::size_t end) {
   for (std::size_t i = first; i < end; ++i) {
     list.for_each_pair_of(
         i, [](std::uint32_t) {},
         [&](std::uint32_t k) {
-          // A record's first and last values: the one or two lines it lies on.
-          const double* record = pf.record(k);
-          __builtin_prefetch(record);
-          __builtin_prefetch(record + pf.stride - 1);
+          __builtin_prefetch(pf.fx.data() + k);
+          __builtin_prefetch(pf.fy.data() + k);
+          __builtin_prefetch(pf.fz.data() + k);
+          if constexpr (kFriction) {
+            __builtin_prefetch(pf.cx.data() + k);
+            __builtin_prefetch(pf.cy.data() + k);
+            __builtin_prefetch(pf.cz.data() + k);
+            __builtin_prefetch(pf.overlap.data() + k);
+          }
         });
   }
 }
@@ -839,7 +818,7 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
   const Eigen::Vector3d g = scene.gravity;
   const bool thermal = p.thermal();
   const bool rolling = kFriction && !pair_forces.roll_x.empty();
-  const bool prefetch = n >= kPrefetchRecordsParticles;
+  const bool prefetch = n >= kPrefetchSlotsParticles;
   const auto share = [&](int share_index, std::size_t first_block, std::size_t end_block) {
     ContactSummary summary;
     // Without boundaries never written.
@@ -854,8 +833,8 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
       const std::size_t block_begin = block * kWallLoadBlock;
       const std::size_t block_end = std::min(n, block_begin + kWallLoadBlock);
       if (prefetch && block + 1 < end_block) {
-        prefetch_column_records(list, pair_forces, block_end,
-                                std::min(n, block_end + kWallLoadBlock));
+        prefetch_column_slots<kFriction>(list, pair_forces, block_end,
+                                         std::min(n, block_end + kWallLoadBlock));
       }
       if (!thermal && !boundary_within_reach(scene, candidates, block_begin, block_end)) {
         if (rolling) {

@@ -76,9 +76,6 @@ struct PairBlock {
   HWY_ALIGN double root_mk[kLaneBlock];    ///< sqrt(m* k_con), hertz_root_mk
   HWY_ALIGN double criterion[kLaneBlock];  ///< 1 where the pair may bond now
   HWY_ALIGN double bonded[kLaneBlock];     ///< out: 1 where the pair is bonded after the pass
-  /// Out: each pair's record values (PairForces) in lane order, written to the records by
-  /// write_records.
-  HWY_ALIGN double record_value[PairForces::kTorqueStride][kLaneBlock];
   /// Per-lane LanePairConstants, filled only when the scene has several material pairs.
   HWY_ALIGN double constant[kConstants][kLaneBlock];
 };
@@ -256,8 +253,7 @@ struct LaneTally {
   double max_overlap = 0.0, max_fraction = 0.0;
 };
 
-/// Evaluates the @p count packed pairs of @p b: their record values into b.record_value, their
-/// springs and rolling torques at pairs first_k ... first_k + count - 1.
+/// Evaluates the @p count packed pairs of @p b, stored at pairs first_k ... first_k + count - 1.
 template <bool kFriction>
 HWY_INLINE void evaluate_block(const detail::LanePassArgs& a, PairBlock& b, std::uint32_t first_k,
                                std::uint32_t count, LaneTally& tally) {
@@ -270,8 +266,6 @@ HWY_INLINE void evaluate_block(const detail::LanePassArgs& a, PairBlock& b, std:
   const V one = hn::Set(d, 1.0);
   const V half = hn::Set(d, 0.5);
   const V dt = hn::Set(d, a.scene->time_step);
-  constexpr std::size_t kRecordValues =
-      kFriction ? PairForces::kTorqueStride : PairForces::kForceStride;
   PairForces& out = *a.out;
   PairHistory& history = *a.history;
   const LanePairConstants& c0 = a.constants[0];
@@ -317,10 +311,13 @@ HWY_INLINE void evaluate_block(const detail::LanePassArgs& a, PairBlock& b, std:
     const M contact = positive_overlap > zero;
     if (hn::AllFalse(d, contact)) {
       // No contact in these lanes: no force, torque or bond, springs released.
-      for (std::size_t v = 0; v < kRecordValues; ++v) hn::Store(zero, d, b.record_value[v] + s);
+      store_lanes(d, zero, valid, out.fx.data() + k);
+      store_lanes(d, zero, valid, out.fy.data() + k);
+      store_lanes(d, zero, valid, out.fz.data() + k);
       hn::Store(zero, d, b.bonded + s);
       if constexpr (kFriction) {
-        for (double* to : {history.sx.data(), history.sy.data(), history.sz.data()}) {
+        for (double* to : {out.cx.data(), out.cy.data(), out.cz.data(), out.overlap.data(),
+                           history.sx.data(), history.sy.data(), history.sz.data()}) {
           store_lanes(d, zero, valid, to + k);
         }
         if (a.rolling) {
@@ -394,11 +391,10 @@ HWY_INLINE void evaluate_block(const detail::LanePassArgs& a, PairBlock& b, std:
           d, contact, k_t, d_t, constant(10, c0.friction, s) * load, n, sliding, dt, spring);
       force = {force.x + friction.x, force.y + friction.y, force.z + friction.z};
       const Lanes3<D> per_lever = cross(n, friction);
-      constexpr std::size_t kPerLever = PairForces::kPerLever;
-      hn::Store(hn::IfThenElseZero(contact, per_lever.x), d, b.record_value[kPerLever] + s);
-      hn::Store(hn::IfThenElseZero(contact, per_lever.y), d, b.record_value[kPerLever + 1] + s);
-      hn::Store(hn::IfThenElseZero(contact, per_lever.z), d, b.record_value[kPerLever + 2] + s);
-      hn::Store(positive_overlap, d, b.record_value[PairForces::kOverlap] + s);
+      store_lanes(d, hn::IfThenElseZero(contact, per_lever.x), valid, out.cx.data() + k);
+      store_lanes(d, hn::IfThenElseZero(contact, per_lever.y), valid, out.cy.data() + k);
+      store_lanes(d, hn::IfThenElseZero(contact, per_lever.z), valid, out.cz.data() + k);
+      store_lanes(d, positive_overlap, valid, out.overlap.data() + k);
       store_lanes(d, hn::IfThenElseZero(contact, spring.x), valid, history.sx.data() + k);
       store_lanes(d, hn::IfThenElseZero(contact, spring.y), valid, history.sy.data() + k);
       store_lanes(d, hn::IfThenElseZero(contact, spring.z), valid, history.sz.data() + k);
@@ -414,10 +410,9 @@ HWY_INLINE void evaluate_block(const detail::LanePassArgs& a, PairBlock& b, std:
         store_lanes(d, roll.z, valid, out.roll_z.data() + k);
       }
     }
-    constexpr std::size_t kForce = PairForces::kForce;
-    hn::Store(hn::IfThenElseZero(contact, force.x), d, b.record_value[kForce] + s);
-    hn::Store(hn::IfThenElseZero(contact, force.y), d, b.record_value[kForce + 1] + s);
-    hn::Store(hn::IfThenElseZero(contact, force.z), d, b.record_value[kForce + 2] + s);
+    store_lanes(d, hn::IfThenElseZero(contact, force.x), valid, out.fx.data() + k);
+    store_lanes(d, hn::IfThenElseZero(contact, force.y), valid, out.fy.data() + k);
+    store_lanes(d, hn::IfThenElseZero(contact, force.z), valid, out.fz.data() + k);
     tally.contacts += hn::CountTrue(d, contact);
     tally.bonds += hn::CountTrue(d, bonded);
     // Largest overlap and overlap / smaller radius; max is exact, so any lane order agrees. The
@@ -439,52 +434,6 @@ HWY_INLINE void evaluate_block(const detail::LanePassArgs& a, PairBlock& b, std:
   hn::Store(max_fraction, d, lane_values);
   for (std::size_t l = 0; l < lanes; ++l) {
     tally.max_fraction = std::max(tally.max_fraction, lane_values[l]);
-  }
-}
-
-#if HWY_TARGET != HWY_SCALAR
-/// Moves the values of four pairs, one vector per value (@p a, @p b, @p c, @p e), into one
-/// vector per pair, in @p pair.
-template <class D4>
-HWY_INLINE void transpose4(D4 d, hn::Vec<D4> a, hn::Vec<D4> b, hn::Vec<D4> c, hn::Vec<D4> e,
-                           hn::Vec<D4>* pair) {
-  // Within each 128-bit half first: (a0 b0 a2 b2), (a1 b1 a3 b3), (c0 e0 c2 e2), (c1 e1 c3 e3).
-  const auto ab_even = hn::InterleaveLower(d, a, b), ab_odd = hn::InterleaveUpper(d, a, b);
-  const auto ce_even = hn::InterleaveLower(d, c, e), ce_odd = hn::InterleaveUpper(d, c, e);
-  pair[0] = hn::ConcatLowerLower(d, ce_even, ab_even);
-  pair[1] = hn::ConcatLowerLower(d, ce_odd, ab_odd);
-  pair[2] = hn::ConcatUpperUpper(d, ce_even, ab_even);
-  pair[3] = hn::ConcatUpperUpper(d, ce_odd, ab_odd);
-}
-#endif
-
-/// Writes the record values of the block's @p count pairs (b.record_value) into their records
-/// from @p to on: a data move, the same bytes whatever the lane width.
-template <bool kFriction>
-HWY_INLINE void write_records(const PairBlock& b, std::uint32_t count, double* HWY_RESTRICT to) {
-  constexpr std::size_t kStride = kFriction ? PairForces::kTorqueStride : PairForces::kForceStride;
-  std::uint32_t s = 0;
-#if HWY_TARGET != HWY_SCALAR
-  const hn::CappedTag<double, 4> d4;
-  if constexpr (kFriction && hn::MaxLanes(d4) == 4) {
-    static_assert(PairForces::kForce == 0 && PairForces::kOverlap == 3 &&
-                  PairForces::kPerLever == 4);
-    // Four pairs at a time: a record is two vectors, (F, delta) and (delta, n x F_t), stored
-    // overlapping on delta.
-    const auto value = [&](std::size_t v) HWY_ATTR { return hn::Load(d4, b.record_value[v] + s); };
-    for (; s + 4 <= count; s += 4) {
-      hn::Vec<decltype(d4)> head[4], tail[4];
-      transpose4(d4, value(0), value(1), value(2), value(3), head);
-      transpose4(d4, value(3), value(4), value(5), value(6), tail);
-      for (std::uint32_t l = 0; l < 4; ++l) {
-        hn::StoreU(head[l], d4, to + (s + l) * kStride);
-        hn::StoreU(tail[l], d4, to + (s + l) * kStride + 3);
-      }
-    }
-  }
-#endif
-  for (; s < count; ++s) {
-    for (std::size_t v = 0; v < kStride; ++v) to[s * kStride + v] = b.record_value[v][s];
   }
 }
 
@@ -549,7 +498,6 @@ ContactSummary LanePass(const detail::LanePassArgs& a, std::size_t first_row,
     pad_block(b, count, (count + lanes - 1) / lanes * lanes);
     const std::size_t bonds_before = tally.bonds;
     evaluate_block<kFriction>(a, b, block, count, tally);
-    write_records<kFriction>(b, count, out.record(block));
     if (a.counted == nullptr) {  // every pair counted: a loop without branches
       std::uint8_t* HWY_RESTRICT flags = out.bonded.data() + block;
       // No pair of the block bonded, before or now (most blocks of most runs): the flags stay 0.

@@ -120,7 +120,7 @@ void Stepper::compute_forces(double laser_time) {
   // The per-pair forces are sized for the list here, the first time they are needed after a
   // build or release_pair_forces(): a restored stepper that is only read (a checkpoint, the end
   // of a decomposed run) never holds them (56 B a pair).
-  if (pair_forces_.pairs() != list_.pair_count()) {
+  if (pair_forces_.fx.size() != list_.pair_count()) {
     pair_forces_.resize(list_.pair_count(), scene_.friction, scene_.rolling(),
                         scene_.particles.thermal());
   }
