@@ -178,8 +178,13 @@ HWY_INLINE Lanes3<D> rolling_lanes(D d, hn::Mask<D> active, hn::Vec<D> rolling_f
   const hn::Vec<D> resistance = rolling_friction * r_star * load;
   const hn::Vec<D> spin_limit = inertia * spin / dt;
   const hn::Vec<D> magnitude = hn::IfThenElse(spin_limit < resistance, spin_limit, resistance);
-  const hn::Vec<D> scale = hn::IfThenZeroElse(hn::Not(rolls), hn::Neg(magnitude / spin));
-  return {relative_spin.x * scale, relative_spin.y * scale, relative_spin.z * scale};
+  const hn::Vec<D> scale = hn::Neg(magnitude / spin);
+  // +0 where the pair does not roll, as rolling_torque's Zero(): a spin component times +0
+  // would be -0 where negative, and a vector that mixes rolling and idle lanes would store
+  // other bytes than the lanes of a narrower target.
+  return {hn::IfThenElseZero(rolls, relative_spin.x * scale),
+          hn::IfThenElseZero(rolls, relative_spin.y * scale),
+          hn::IfThenElseZero(rolls, relative_spin.z * scale)};
 }
 
 }  // namespace bondem::HWY_NAMESPACE
