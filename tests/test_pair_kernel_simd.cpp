@@ -7,10 +7,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <random>
 #include <vector>
 
+#include "run_helpers.hpp"
 #include "solver/engine/contact_kernel.hpp"
 #include "solver/engine/pair_kernel_simd.hpp"
 #include "solver/engine/scene.hpp"
@@ -127,8 +127,7 @@ std::vector<const StaggeredVector<double>*> arrays(const PassResult& r) {
 
 /// Whether @p a and @p b hold the same bytes (== would take -0 for +0).
 bool same_bytes(const StaggeredVector<double>& a, const StaggeredVector<double>& b) {
-  return a.size() == b.size() &&
-         (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0);
+  return std::equal(a.begin(), a.end(), b.begin(), b.end(), testing::same_bits);
 }
 
 TEST(PairKernelSimd, PackingTakesTheSimdPass) {
