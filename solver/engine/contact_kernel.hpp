@@ -721,7 +721,8 @@ struct BoundaryTally {
 inline constexpr std::size_t kBoundaryLoadValues = 6;
 
 /// Adds the contacts of boundary @p b with the particles [@p first, @p end) to their loads
-/// @p loads (by place in the range) and to the boundary loads (kBoundaryLoadValues per boundary)
+/// @p loads (by place in the range; null: to their force and torque arrays, which hold their
+/// sums so far, in runs without heat) and to the boundary loads (kBoundaryLoadValues per boundary)
 /// of @p thread_load, or of @p uncounted_load for a particle that @p counted leaves to another
 /// rank; boundaries held at a temperature also conduct heat. A mesh is searched for each
 /// particle among its candidate triangles, an analytic boundary for the particles in its reach
@@ -742,19 +743,30 @@ void gather_boundary(Particles& p, const Scene& scene, const Law& law, std::size
       const bool counts = counted == nullptr || counted[i] != 0;
       ExactSum* boundary_load = (counts ? thread_load : uncounted_load) + b * kBoundaryLoadValues;
       BoundaryTally& kept = counts ? tally : uncounted;
-      ParticleLoad& load = loads[i - first];
       const Eigen::Vector3d moment = (contact.point - boundary.center).cross(contact.force);
       for (int axis = 0; axis < 3; ++axis) {
         boundary_load[axis].add(contact.force[axis]);
         boundary_load[3 + axis].add(moment[axis]);
       }
-      load.force += contact.force;
-      load.torque += contact.torque;
+      if (loads == nullptr) {  // the pair sums are stored: the same adds, in the same order
+        p.fx[i] += contact.force.x();
+        p.fy[i] += contact.force.y();
+        p.fz[i] += contact.force.z();
+        if constexpr (kFriction) {
+          p.tx[i] += contact.torque.x();
+          p.ty[i] += contact.torque.y();
+          p.tz[i] += contact.torque.z();
+        }
+      } else {
+        loads[i - first].force += contact.force;
+        loads[i - first].torque += contact.torque;
+      }
       if (contact.overlap <= 0.0) return;
       ++kept.contacts;
       kept.max_overlap = std::max(kept.max_overlap, contact.overlap);
       kept.max_fraction = std::max(kept.max_fraction, contact.overlap / p.radius[i]);
       if (thermal && boundary.temperature > 0.0) {
+        ParticleLoad& load = loads[i - first];  // thermal runs stage their loads
         const double h = spot_conductance(scene.pair(p.material[i], boundary.material).conductivity,
                                           spot_radius(p.radius[i], contact.overlap));
         load.heat += contact_heat_flow(h, p.temperature[i], boundary.temperature);
@@ -836,12 +848,26 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
         prefetch_column_slots<kFriction>(list, pair_forces, block_end,
                                          std::min(n, block_end + kWallLoadBlock));
       }
-      if (!thermal && !boundary_within_reach(scene, candidates, block_begin, block_end)) {
+      if (!thermal) {
+        // The pair sums straight into the force arrays, then each boundary's contacts added to
+        // them: the additions of the staged loads below in the same order, without the loads'
+        // stores and copy (the blocks the floor reaches on the 20 800 peer lattice).
         if (rolling) {
           gather_pair_range_into<kFriction, true>(p, list, pair_forces, g, block_begin, block_end);
         } else {
           gather_pair_range_into<kFriction, false>(p, list, pair_forces, g, block_begin, block_end);
         }
+        if (!boundary_within_reach(scene, candidates, block_begin, block_end)) continue;
+        for (std::size_t b = 0; b < boundaries; ++b) {
+          gather_boundary<kFriction, kModels>(
+              p, scene, law, b, frames[b], candidates[b], block_begin, block_end, thermal, counted,
+              buffer, share_load, uncounted_load.data(), nullptr, tally, uncounted);
+        }
+        summary.wall_contacts += tally.contacts;
+        summary.max_overlap =
+            std::max({summary.max_overlap, tally.max_overlap, uncounted.max_overlap});
+        summary.max_overlap_fraction =
+            std::max({summary.max_overlap_fraction, tally.max_fraction, uncounted.max_fraction});
         continue;
       }
       ParticleLoad loads[kWallLoadBlock];
