@@ -1,6 +1,7 @@
 // StaggeredVector: large buffers start at distinct cache-line offsets within a page (and on a huge
-// page when they span one), small ones are plain, and the vector behaves as a std::vector (the
-// allocator frees what it allocated: the sanitizer run of the unit tests checks that).
+// page when they span one), small ones are plain, assign_zeros and populate give what they say,
+// and the vector behaves as a std::vector (the allocator frees what it allocated: the sanitizer
+// run of the unit tests checks that).
 
 #include <gtest/gtest.h>
 
@@ -48,6 +49,31 @@ TEST(StaggeredVector, BuffersSpanningAHugePageStartOnOne) {
     EXPECT_EQ(std::count(array.begin(), array.end(), 0.0), static_cast<std::ptrdiff_t>(values));
   }
   EXPECT_EQ(offsets.size(), kArrays);
+}
+
+TEST(StaggeredVector, AssignZerosGivesZerosAtEverySize) {
+  // Each path of assign_zeros: small (a plain assign), fresh pages populated on the calling
+  // thread, in 1 MiB pieces on every thread, on huge pages, and a smaller size within the
+  // capacity, whose old values (-1 here) must all be overwritten.
+  StaggeredVector<double> values;
+  for (const std::size_t bytes : {kPopulatedBytes - 8, kPopulatedBytes + 8, kOwnMappingBytes + 4104,
+                                  3 * kHugePageBufferBytes + 8, kPopulatedBytes + 8}) {
+    const std::size_t count = bytes / sizeof(double);
+    values.assign(std::min(values.capacity(), count), -1.0);
+    assign_zeros(values, count);
+    ASSERT_EQ(values.size(), count);
+    EXPECT_EQ(std::count(values.begin(), values.end(), 0.0), static_cast<std::ptrdiff_t>(count))
+        << bytes << " bytes";
+  }
+}
+
+TEST(StaggeredVector, PopulateKeepsTheBytes) {
+  // An unaligned range: its partial first and last pages are left alone, every byte is kept.
+  std::vector<std::uint8_t> bytes(5 * 4096 + 123);
+  for (std::size_t i = 0; i < bytes.size(); ++i) bytes[i] = static_cast<std::uint8_t>(i * 7 + 1);
+  const std::vector<std::uint8_t> before = bytes;
+  populate(bytes.data() + 17, bytes.size() - 40);
+  EXPECT_EQ(bytes, before);
 }
 
 TEST(StaggeredVector, KeepsItsValuesThroughGrowthAndCopies) {
