@@ -693,22 +693,6 @@ inline bool boundary_within_reach(const Scene& scene,
   return false;
 }
 
-/// gather_pair_range for a run with or without rolling torques and heat.
-template <bool kFriction>
-void gather_pair_range(const Particles& p, const NeighborList& list, const PairForces& pf,
-                       const Eigen::Vector3d& gravity, bool rolling, bool thermal,
-                       std::size_t first, std::size_t end, ParticleLoad* loads) {
-  if (rolling && thermal) {
-    gather_pair_range<kFriction, true, true>(p, list, pf, gravity, first, end, loads);
-  } else if (rolling) {
-    gather_pair_range<kFriction, true, false>(p, list, pf, gravity, first, end, loads);
-  } else if (thermal) {
-    gather_pair_range<kFriction, false, true>(p, list, pf, gravity, first, end, loads);
-  } else {
-    gather_pair_range<kFriction, false, false>(p, list, pf, gravity, first, end, loads);
-  }
-}
-
 /// What the boundaries did to the particles of a block of pass 2.
 struct BoundaryTally {
   std::size_t contacts = 0;
@@ -839,6 +823,22 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
     thread_local MeshQueryBuffer buffer;  // reused: mesh queries allocate only while it grows
     thread_local std::vector<ExactSum> uncounted_load;
     if (counted != nullptr) uncounted_load.resize(boundaries * kBoundaryLoadValues);
+    // Every boundary's contacts with particles [first, end), into staged or, if null, the arrays.
+    const auto add_boundaries = [&](std::size_t first, std::size_t end, ParticleLoad* staged,
+                                    BoundaryTally& tally, BoundaryTally& uncounted) {
+      for (std::size_t b = 0; b < boundaries; ++b) {
+        gather_boundary<kFriction, kModels>(p, scene, law, b, frames[b], candidates[b], first, end,
+                                            thermal, counted, buffer, share_load,
+                                            uncounted_load.data(), staged, tally, uncounted);
+      }
+    };
+    const auto add_tallies = [&](const BoundaryTally& tally, const BoundaryTally& uncounted) {
+      summary.wall_contacts += tally.contacts;
+      summary.max_overlap =
+          std::max({summary.max_overlap, tally.max_overlap, uncounted.max_overlap});
+      summary.max_overlap_fraction =
+          std::max({summary.max_overlap_fraction, tally.max_fraction, uncounted.max_fraction});
+    };
     for (std::size_t block = first_block; block < end_block; ++block) {
       BoundaryTally tally;
       BoundaryTally uncounted;  // of particles another rank counts: only its maxima are kept
@@ -858,26 +858,21 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
           gather_pair_range_into<kFriction, false>(p, list, pair_forces, g, block_begin, block_end);
         }
         if (!boundary_within_reach(scene, candidates, block_begin, block_end)) continue;
-        for (std::size_t b = 0; b < boundaries; ++b) {
-          gather_boundary<kFriction, kModels>(
-              p, scene, law, b, frames[b], candidates[b], block_begin, block_end, thermal, counted,
-              buffer, share_load, uncounted_load.data(), nullptr, tally, uncounted);
-        }
-        summary.wall_contacts += tally.contacts;
-        summary.max_overlap =
-            std::max({summary.max_overlap, tally.max_overlap, uncounted.max_overlap});
-        summary.max_overlap_fraction =
-            std::max({summary.max_overlap_fraction, tally.max_fraction, uncounted.max_fraction});
+        add_boundaries(block_begin, block_end, nullptr, tally, uncounted);
+        add_tallies(tally, uncounted);
         continue;
       }
+      // A thermal run stages each block's loads: heat and conductance are summed beside the force
+      // and torque, and the surroundings' exchange comes last.
       ParticleLoad loads[kWallLoadBlock];
-      gather_pair_range<kFriction>(p, list, pair_forces, g, rolling, thermal, block_begin,
-                                   block_end, loads);
-      for (std::size_t b = 0; b < boundaries; ++b) {
-        gather_boundary<kFriction, kModels>(p, scene, law, b, frames[b], candidates[b], block_begin,
-                                            block_end, thermal, counted, buffer, share_load,
-                                            uncounted_load.data(), loads, tally, uncounted);
+      if (rolling) {
+        gather_pair_range<kFriction, true, true>(p, list, pair_forces, g, block_begin, block_end,
+                                                 loads);
+      } else {
+        gather_pair_range<kFriction, false, true>(p, list, pair_forces, g, block_begin, block_end,
+                                                  loads);
       }
+      add_boundaries(block_begin, block_end, loads, tally, uncounted);
       // In locals: a store through the arrays could otherwise alias p's own members.
       double* __restrict force_x = p.fx.data();
       double* __restrict force_y = p.fy.data();
@@ -887,13 +882,11 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
       double* __restrict torque_z = p.tz.data();
       for (std::size_t i = block_begin; i < block_end; ++i) {
         ParticleLoad& load = loads[i - block_begin];
-        if (thermal) {
-          exchange_with_surroundings(p, scene, i, load);
-          p.heat_rate[i] = load.heat;
-          summary.thermal_step_ratio = std::max(
-              summary.thermal_step_ratio,
-              thermal_step_ratio(scene.time_step, load.conductance, p.inv_heat_capacity[i]));
-        }
+        exchange_with_surroundings(p, scene, i, load);
+        p.heat_rate[i] = load.heat;
+        summary.thermal_step_ratio =
+            std::max(summary.thermal_step_ratio,
+                     thermal_step_ratio(scene.time_step, load.conductance, p.inv_heat_capacity[i]));
         force_x[i] = load.force.x();
         force_y[i] = load.force.y();
         force_z[i] = load.force.z();
@@ -903,11 +896,7 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
           torque_z[i] = load.torque.z();
         }
       }
-      summary.wall_contacts += tally.contacts;
-      summary.max_overlap =
-          std::max({summary.max_overlap, tally.max_overlap, uncounted.max_overlap});
-      summary.max_overlap_fraction =
-          std::max({summary.max_overlap_fraction, tally.max_fraction, uncounted.max_fraction});
+      add_tallies(tally, uncounted);
     }
     return summary;
   };

@@ -117,9 +117,9 @@ using StaggeredVector = std::vector<T, StaggeredAllocator<T>>;
 inline constexpr std::size_t kPopulatedBytes = std::size_t{64} << 10;
 
 /// Maps the whole pages of [@p start, @p start + @p bytes) writable, their contents unchanged, in
-/// one call, where a page
-/// touched for the first time otherwise faults one at a time (about 10 us apiece in a virtual
-/// machine; MADV_POPULATE_WRITE measured half of that per page here, host faults included).
+/// one call, where pages touched for the first time fault one at a time (about 10 us apiece in a
+/// virtual machine; MADV_POPULATE_WRITE measured half of that per page here, host faults
+/// included).
 inline void populate(void* start, std::size_t bytes) {
   const auto first = (reinterpret_cast<std::uintptr_t>(start) + 4095) / 4096 * 4096;
   const auto end = (reinterpret_cast<std::uintptr_t>(start) + bytes) / 4096 * 4096;
