@@ -178,6 +178,7 @@ TEST(PairKernelSimd, MatchesTheScalarPassOnEveryBranch) {
       double scale = 0.0;
       for (double v : *expected[a]) scale = std::max(scale, std::abs(v));
       ASSERT_GT(scale, 0.0) << "array " << a << " never set";
+      ASSERT_EQ(got[a]->size(), list.pair_count()) << "array " << a;
       for (std::size_t k = 0; k < list.pair_count(); ++k) {
         ASSERT_NEAR((*got[a])[k], (*expected[a])[k], 1e-12 * scale)
             << "array " << a << " pair " << k;
