@@ -632,8 +632,8 @@ void put_payload(Writer& payload, const CheckpointView& checkpoint, std::uint64_
   // Field by field: the struct's padding bytes are not part of the state.
   payload.put(slips);
   std::uint64_t visited = 0;
-  if (parts && !payload.streams()) {
-    payload.skip(slips * kSlipBytes);  // counted: the collective stream runs in the writing pass
+  if (!payload.streams()) {
+    payload.skip(slips * kSlipBytes);  // counted: the pairs are walked in the writing pass
   } else {
     checkpoint.for_each_slip([&](const SlipRecord& slip) {
       payload.put(slip.first_id);
@@ -689,7 +689,8 @@ CheckpointView checkpoint_view(const Checkpoint& checkpoint) {
             for (const SlipRecord& slip : s.slips) visit(slip);  // by ids (collect_slips)
           },
           std::make_shared<const std::vector<std::uint32_t>>(checkpoint.particles.order_by_id()),
-          std::nullopt};
+          std::nullopt,
+          s.slips.size()};
 }
 
 CheckpointView checkpoint_view(std::uint64_t case_fingerprint, const Particles& particles,
@@ -708,12 +709,15 @@ CheckpointView checkpoint_view(std::uint64_t case_fingerprint, const Particles& 
             stepper.for_each_slip(*by_id, visit);
           },
           by_id,
-          std::nullopt};
+          std::nullopt,
+          stepper.slip_count()};
 }
 
 void write_checkpoint(const std::string& path, const CheckpointView& checkpoint) {
-  std::uint64_t slips = checkpoint.parts ? checkpoint.parts->slips : 0;
-  if (!checkpoint.parts)
+  std::uint64_t slips = checkpoint.parts   ? checkpoint.parts->slips
+                        : checkpoint.slips ? *checkpoint.slips
+                                           : 0;
+  if (!checkpoint.parts && !checkpoint.slips)
     checkpoint.for_each_slip([&slips](const SlipRecord& /*slip*/) { ++slips; });
   Writer counter;
   put_payload(counter, checkpoint, slips);

@@ -171,13 +171,17 @@ struct CheckpointView {
   const std::vector<std::string>& material_names;  ///< by material index
   /// The neighbor list's build positions, x, y and z.
   std::array<const StaggeredVector<double>*, 3> build_positions;
-  /// The pairs' carried state (a write visits it three times), by (first id, second id).
+  /// The pairs' carried state (a write visits it once, twice without slips), by (first id,
+  /// second id).
   SlipVisitor for_each_slip;
   /// The particles' order_by_id(): the checkpoint holds them by id, whatever their storage order.
   std::shared_ptr<const std::vector<std::uint32_t>> by_id;
   /// Set in a distributed run: the particles and the pairs come from every process's part, and
   /// for_each_slip is collective.
   std::optional<DistributedParts> parts;
+  /// The number of pairs for_each_slip visits, where known without visiting them (a writer
+  /// then walks the pairs once, not twice).
+  std::optional<std::uint64_t> slips;
 };
 
 /// The view of @p checkpoint.

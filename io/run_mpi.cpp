@@ -797,7 +797,8 @@ class DistributedRun {
         {&list.build_positions(0), &list.build_positions(1), &list.build_positions(2)},
         [&](const std::function<void(const SlipRecord&)>& visit) { order.slips(stepper, visit); },
         std::make_shared<const std::vector<std::uint32_t>>(),
-        std::move(parts)};
+        std::move(parts),
+        std::nullopt};
     together([&] {
       if (world_rank() == 0) {
         bondem::write_checkpoint(path, view);

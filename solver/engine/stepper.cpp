@@ -157,6 +157,17 @@ void Stepper::deposit_laser(double laser_time) {
   laser_missed_power_ = deposit.missed;
 }
 
+std::uint64_t Stepper::slip_count() const {
+  const auto pairs = static_cast<std::int64_t>(list_.pair_count());
+  std::uint64_t count = 0;
+#pragma omp parallel for schedule(static) if (pairs >= 4 * static_cast<std::int64_t>(kMinParallelParticles)) \
+    reduction(+ : count)
+  for (std::int64_t k = 0; k < pairs; ++k) {
+    count += carries_state(history_, pair_forces_.bonded, static_cast<std::uint32_t>(k)) ? 1 : 0;
+  }
+  return count;
+}
+
 std::vector<SlipRecord> Stepper::collect_slips() const {
   // Counted first: a vector grown by doubling would hold up to three times the records while it
   // moves them (72 B each, about three a particle in a frictional packing).

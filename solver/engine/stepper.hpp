@@ -166,6 +166,8 @@ class Stepper {
   /// particles' order_by_id(), by (first id, second id), whatever the storage order.
   template <class Visit>
   void for_each_slip(std::span<const std::uint32_t> rows, Visit&& visit) const;
+  /// How many pairs for_each_slip() visits over every row, counted without building the records.
+  std::uint64_t slip_count() const;
 
   /// Free the per-pair forces, torque terms and heat flows of the last evaluation (56 B a pair
   /// with friction; pair_forces() keeps only the bond flags) until the next step() evaluates them
