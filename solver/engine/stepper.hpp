@@ -108,7 +108,7 @@ class Stepper {
       std::int64_t first_id, second_id;
       std::uint32_t slot;
     };
-    std::vector<Key> keys;
+    StaggeredVector<Key> keys;
     PairHistory history;                   ///< springs, rolling springs and JKR flags, by slot
     StaggeredVector<std::uint8_t> bonded;  ///< bond flags, by slot
     /// The state of the pair of key @p k, as a checkpoint carries it.
