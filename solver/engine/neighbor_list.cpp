@@ -13,9 +13,9 @@ namespace bondem {
 namespace {
 
 /// Frees a vector's storage (clear() keeps the capacity).
-template <class T>
-void release(std::vector<T>& buffer) {
-  std::vector<T>().swap(buffer);
+template <class Vector>
+void release(Vector& buffer) {
+  Vector().swap(buffer);
 }
 
 /// Cells per axis of edge >= @p cell_size, at most about @p max_cells in all: unpinned axes are
@@ -98,7 +98,7 @@ void NeighborList::bin(const Particles& p, const Domain& domain, double cell_siz
     }
   }
   const std::size_t cell_count = static_cast<std::size_t>(cells_[0]) * cells_[1] * cells_[2];
-  cell_of_.resize(n);
+  assign_zeros(cell_of_, n);
   const double* coords[3] = {p.x.data(), p.y.data(), p.z.data()};
   bool finite = true;
   // First x fastest and z slowest, with the occupied range of each axis; then, if cell_strides
@@ -151,11 +151,12 @@ void NeighborList::bin(const Particles& p, const Domain& domain, double cell_siz
     }
   }
   // count -> scan -> fill; the serial fill keeps each cell's particles in index order.
-  cell_begin_.assign(cell_count + 1, 0);
+  assign_zeros(cell_begin_, cell_count + 1);
   for (std::size_t i = 0; i < n; ++i) ++cell_begin_[cell_of_[i] + 1];
   for (std::size_t c = 0; c < cell_count; ++c) cell_begin_[c + 1] += cell_begin_[c];
-  cell_items_.resize(n);
-  cursor_.assign(cell_begin_.begin(), cell_begin_.end() - 1);
+  assign_zeros(cell_items_, n);
+  assign_zeros(cursor_, cell_count);
+  std::copy(cell_begin_.begin(), cell_begin_.end() - 1, cursor_.begin());
   for (std::size_t i = 0; i < n; ++i)
     cell_items_[cursor_[cell_of_[i]]++] = static_cast<std::uint32_t>(i);
 }
@@ -328,13 +329,15 @@ void NeighborList::find_rows(const Particles& p, const Domain& domain, double sk
 void NeighborList::index_columns(const Particles& p) {
   const std::size_t n = row_begin_.size() - 1;
   // Transposed index, count -> scan -> fill in pair order.
-  column_begin_.assign(n + 1, 0);
+  assign_zeros(column_begin_, n + 1);
   for (const std::uint32_t j : second_) ++column_begin_[j + 1];
   for (std::size_t i = 0; i < n; ++i) column_begin_[i + 1] += column_begin_[i];
-  column_pair_.resize(second_.size());
-  cursor_.assign(column_begin_.begin(), column_begin_.end() - 1);
+  assign_zeros(column_pair_, second_.size());
+  assign_zeros(cursor_, n);
+  std::copy(column_begin_.begin(), column_begin_.end() - 1, cursor_.begin());
   // The first particle of each entry, kept while sorting: columns sort by its id.
-  std::vector<std::uint32_t> first_of(second_.size());
+  StaggeredVector<std::uint32_t> first_of;
+  assign_zeros(first_of, second_.size());
   for (std::size_t i = 0; i < n; ++i) {
     for (std::uint32_t k = row_begin_[i]; k < row_begin_[i + 1]; ++k) {
       const std::uint32_t slot = cursor_[second_[k]]++;

@@ -179,10 +179,12 @@ class NeighborList {
   Eigen::Vector3d cell_width_ = Eigen::Vector3d::Ones();
   StaggeredVector<double> x0_, y0_, z0_;  ///< positions at the last build
   // Scratch space of build(), released when it returns.
-  std::vector<std::uint32_t> cell_of_;     ///< cell of each particle
-  std::vector<std::uint32_t> cell_begin_;  ///< size cells + 1
-  std::vector<std::uint32_t> cell_items_;  ///< particles sorted by cell, by index within a cell
-  std::vector<std::uint32_t> cursor_;
+  // Staggered: their pages are first written on every thread (assign_zeros) and, at 10^6
+  // particles, huge pages.
+  StaggeredVector<std::uint32_t> cell_of_;     ///< cell of each particle
+  StaggeredVector<std::uint32_t> cell_begin_;  ///< size cells + 1
+  StaggeredVector<std::uint32_t> cell_items_;  ///< particles sorted by cell, by index within a cell
+  StaggeredVector<std::uint32_t> cursor_;
 };
 
 }  // namespace bondem

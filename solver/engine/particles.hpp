@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <span>
 #include <string_view>
 #include <type_traits>
 #include <variant>
@@ -136,7 +137,7 @@ struct Particles {
 
   /// Reorder every field marked kReordered so that new index k holds old particle order[k]; an
   /// order shorter than size() drops the particles it leaves out.
-  void permute(const std::vector<std::uint32_t>& order);
+  void permute(std::span<const std::uint32_t> order);
 
   /// The particles at @p order (indices into these) in that order, as permute() would leave a
   /// copy, without copying the others first.
@@ -144,7 +145,7 @@ struct Particles {
 
  private:
   /// Every field of @p from gathered at @p order into @p to (which may be @p from).
-  static void gather(const Particles& from, const std::vector<std::uint32_t>& order, Particles& to);
+  static void gather(const Particles& from, std::span<const std::uint32_t> order, Particles& to);
 
  public:
   /// Start tracking temperatures: every kThermal field gets a zero per particle, for the scene
@@ -317,7 +318,7 @@ inline void Particles::assign_zeros(std::size_t count) {
   }
 }
 
-inline void Particles::permute(const std::vector<std::uint32_t>& order) {
+inline void Particles::permute(std::span<const std::uint32_t> order) {
   gather(*this, order, *this);
 }
 
@@ -333,7 +334,7 @@ inline Particles Particles::selected(const std::vector<std::uint32_t>& order) co
   return chosen;
 }
 
-inline void Particles::gather(const Particles& from, const std::vector<std::uint32_t>& order,
+inline void Particles::gather(const Particles& from, std::span<const std::uint32_t> order,
                               Particles& to) {
   // In place, the old buffer of each double array takes the next one's values: a fresh buffer per
   // array faulted in about 150 MB of new pages on one thread at 10^6 particles (a page touched
@@ -354,10 +355,14 @@ inline void Particles::gather(const Particles& from, const std::vector<std::uint
           if constexpr (std::is_same_v<Vector, StaggeredVector<double>>) {
             if (in_place) reordered = &spare;
           }
-          if (reordered->capacity() < count * stride) {
-            bondem::assign_zeros(*reordered, count * stride);  // pages mapped on every thread
+          const std::size_t values_needed = count * stride;
+          // A spare much larger than needed (a per-wall array's, for one value a particle) would
+          // stay with this array as unused capacity: then a buffer of its own.
+          const std::size_t room = reordered->capacity();
+          if (room < values_needed || room - values_needed > values_needed / 8) {
+            bondem::assign_zeros(*reordered, values_needed);  // pages mapped on every thread
           } else {
-            reordered->resize(count * stride);
+            reordered->resize(values_needed);
           }
           auto* const out = reordered->data();
           const auto* const in = values.data();

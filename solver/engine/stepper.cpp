@@ -7,6 +7,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "solver/engine/parallel_sort.hpp"
 #include "solver/models/energy.hpp"
 
 namespace bondem {
@@ -160,8 +161,8 @@ void Stepper::deposit_laser(double laser_time) {
 std::uint64_t Stepper::slip_count() const {
   const auto pairs = static_cast<std::int64_t>(list_.pair_count());
   std::uint64_t count = 0;
-#pragma omp parallel for schedule(static) if (pairs >= 4 * static_cast<std::int64_t>(kMinParallelParticles)) \
-    reduction(+ : count)
+  const bool parallel = pairs >= 4 * static_cast<std::int64_t>(kMinParallelParticles);
+#pragma omp parallel for schedule(static) if (parallel) reduction(+ : count)
   for (std::int64_t k = 0; k < pairs; ++k) {
     count += carries_state(history_, pair_forces_.bonded, static_cast<std::uint32_t>(k)) ? 1 : 0;
   }
@@ -268,40 +269,6 @@ Stepper::CarriedPairs Stepper::release_pairs(const std::vector<std::uint8_t>* ro
   return carried;
 }
 
-namespace {
-
-/// Sorts @p values by @p less, a strict total order (so the result is the one sorted sequence,
-/// whatever the threads): contiguous pieces sorted on every thread, then merged pairwise.
-template <class Vector, class Less>
-void sort_in_parallel(Vector& values, Less less) {
-  const std::size_t n = values.size();
-  const int threads = threads_in_use(n);
-  if (threads < 2 || n < 4 * kMinParallelParticles) {
-    std::sort(values.begin(), values.end(), less);
-    return;
-  }
-  std::vector<std::size_t> bounds(static_cast<std::size_t>(threads) + 1);
-  for (std::size_t t = 0; t < bounds.size(); ++t) bounds[t] = n * t / (bounds.size() - 1);
-  const auto at = [&](std::size_t b) { return values.begin() + static_cast<std::ptrdiff_t>(b); };
-#pragma omp parallel for schedule(static, 1) num_threads(threads)
-  for (int t = 0; t < threads; ++t) {
-    const auto piece = static_cast<std::size_t>(t);
-    std::sort(at(bounds[piece]), at(bounds[piece + 1]), less);
-  }
-  for (std::size_t width = 1; width + 1 < bounds.size(); width *= 2) {
-    const std::size_t pieces = bounds.size() - 1;  // merge piece 2mw..2mw+w with the next w
-    const auto merges = static_cast<std::int64_t>((pieces - width + 2 * width - 1) / (2 * width));
-#pragma omp parallel for schedule(static, 1) num_threads(threads)
-    for (std::int64_t m = 0; m < merges; ++m) {
-      const std::size_t first = static_cast<std::size_t>(m) * 2 * width;
-      const std::size_t last = std::min(first + 2 * width, pieces);
-      std::inplace_merge(at(bounds[first]), at(bounds[first + width]), at(bounds[last]), less);
-    }
-  }
-}
-
-}  // namespace
-
 void Stepper::carry_pairs(CarriedPairs carried, CarriedPairs more, const SlipSource& streamed) {
   // Pair slots are indexed by the new list: start them clean, then refill by ids, the lowest
   // precedence first (each source overwrites what the one before set).
@@ -334,8 +301,8 @@ void Stepper::carry_pairs(CarriedPairs carried, CarriedPairs more, const SlipSou
     const StaggeredVector<std::uint32_t>& row_begin = list_.row_begins();
     const auto rows = static_cast<std::int64_t>(list_.row_count());
     const CarriedPairs* const sources[] = {&carried, &more};
-#pragma omp parallel for schedule(static) if (rows >= \
-                                              static_cast <std::int64_t>(kMinParallelParticles))
+    const bool parallel = rows >= static_cast<std::int64_t>(kMinParallelParticles);
+#pragma omp parallel for schedule(static) if (parallel)
     for (std::int64_t row = 0; row < rows; ++row) {
       const auto i = static_cast<std::size_t>(row);
       if (row_begin[i] == row_begin[i + 1]) continue;
