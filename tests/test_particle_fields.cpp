@@ -29,9 +29,9 @@ double value_of(std::size_t row, std::size_t k) {
   return static_cast<double>(1000 * (row + 1) + k);
 }
 
-/// kCount particles with walls, temperatures and contact history, every field of the table
+/// @p count particles with walls, temperatures and contact history, every field of the table
 /// filled with value_of(row, k).
-Particles filled() {
+Particles filled(std::size_t count = kCount) {
   Particles p;
   p.walls = kWalls;
   p.contact_history = true;
@@ -44,7 +44,7 @@ Particles filled() {
     std::visit(
         [&](auto member) {
           auto& values = p.*member;
-          values.resize(kCount * per);
+          values.resize(count * per);
           for (std::size_t k = 0; k < values.size(); ++k) {
             values[k] =
                 static_cast<typename std::decay_t<decltype(values)>::value_type>(value_of(row, k));
@@ -123,6 +123,38 @@ TEST(ParticleFields, PermuteMovesEveryReorderedFieldWithItsParticle) {
         EXPECT_EQ(new_values[k * per + c], old_values[order[k] * per + c]) << field.name;
       }
     }
+  }
+}
+
+TEST(ParticleFields, PermuteOfManyOnEveryThreadMovesEachValueAndKeepsNoSpareCapacity) {
+  // 5 000 particles: the gather runs on every thread, and in place each double array's old
+  // buffer is handed to the next one; per-wall arrays (kWalls x 3 or 4 values a particle) sit
+  // beside one-value arrays. Every value must follow its particle, and no array may keep a
+  // buffer much larger than it needs (the 10^6 memory target counts every byte).
+  constexpr std::size_t kMany = 5000;
+  const Particles before = filled(kMany);
+  Particles after = before;
+  std::vector<std::uint32_t> order(kMany);
+  for (std::size_t k = 0; k < kMany; ++k) order[k] = static_cast<std::uint32_t>((k * 7919) % kMany);
+  after.permute(order);
+  for (const ParticleField& field : kParticleFields) {
+    const std::size_t per = values_per_particle(field, before);
+    const std::vector<double> old_values = values(before, field);
+    const std::vector<double> new_values = values(after, field);
+    ASSERT_EQ(new_values.size(), kMany * per) << field.name;
+    std::size_t moved_wrong = 0;
+    for (std::size_t k = 0; k < kMany; ++k) {
+      for (std::size_t c = 0; c < per; ++c) {
+        moved_wrong += new_values[k * per + c] != old_values[order[k] * per + c] ? 1 : 0;
+      }
+    }
+    EXPECT_EQ(moved_wrong, 0u) << field.name;
+    std::visit(
+        [&](auto member) {
+          const auto& array = after.*member;
+          EXPECT_LE(array.capacity(), array.size() + array.size() / 8) << field.name;
+        },
+        field.member);
   }
 }
 

@@ -1,4 +1,5 @@
-// ThreadSplit: the threads' shares of a pass, balanced by measured time.
+// ThreadSplit: the threads' shares of a pass, balanced by measured time; sort_in_parallel: the
+// same order for any thread count.
 #include <gtest/gtest.h>
 #include <omp.h>
 

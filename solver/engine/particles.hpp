@@ -359,10 +359,11 @@ inline void Particles::gather(const Particles& from, std::span<const std::uint32
           // A spare much larger than needed (a per-wall array's, for one value a particle) would
           // stay with this array as unused capacity: then a buffer of its own.
           const std::size_t room = reordered->capacity();
-          if (room < values_needed || room - values_needed > values_needed / 8) {
-            bondem::assign_zeros(*reordered, values_needed);  // pages mapped on every thread
-          } else {
+          if (room >= values_needed && room - values_needed <= values_needed / 8) {
             reordered->resize(values_needed);
+          } else {
+            Vector().swap(*reordered);                        // never kept as spare capacity
+            bondem::assign_zeros(*reordered, values_needed);  // pages mapped on every thread
           }
           auto* const out = reordered->data();
           const auto* const in = values.data();
