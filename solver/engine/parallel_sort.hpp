@@ -21,18 +21,19 @@ inline void sort_in_parallel(Vector& values, Less less) {
     std::sort(values.begin(), values.end(), less);
     return;
   }
-  std::vector<std::size_t> bounds(static_cast<std::size_t>(threads) + 1);
-  for (std::size_t t = 0; t < bounds.size(); ++t) bounds[t] = n * t / (bounds.size() - 1);
+  const auto pieces = static_cast<std::size_t>(threads);
+  std::vector<std::size_t> bounds(pieces + 1);  // piece t is [bounds[t], bounds[t + 1])
+  for (std::size_t t = 0; t <= pieces; ++t) bounds[t] = n * t / pieces;
   const auto at = [&](std::size_t b) { return values.begin() + static_cast<std::ptrdiff_t>(b); };
 #pragma omp parallel for schedule(static, 1) num_threads(threads)
   for (int t = 0; t < threads; ++t) {
     const auto piece = static_cast<std::size_t>(t);
     std::sort(at(bounds[piece]), at(bounds[piece + 1]), less);
   }
-  for (std::size_t width = 1; width + 1 < bounds.size(); width *= 2) {
-    // Merge m joins the sorted runs of pieces [2mw, 2mw + w) and [2mw + w, 2mw + 2w).
-    const std::size_t pieces = bounds.size() - 1;
-    const auto merges = static_cast<std::int64_t>((pieces - width + 2 * width - 1) / (2 * width));
+  // Runs of `width` sorted pieces, merged pairwise until one run is left: merge m joins pieces
+  // [2mw, 2mw + w) and [2mw + w, 2mw + 2w), the last run alone when it has no partner.
+  for (std::size_t width = 1; width < pieces; width *= 2) {
+    const auto merges = static_cast<std::int64_t>((pieces + width - 1) / (2 * width));
 #pragma omp parallel for schedule(static, 1) num_threads(threads)
     for (std::int64_t m = 0; m < merges; ++m) {
       const std::size_t first = static_cast<std::size_t>(m) * 2 * width;
