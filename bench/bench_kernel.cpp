@@ -99,11 +99,12 @@ void pair_pass(benchmark::State& state, bool bonded, double alpha) {
   history.resize(list.pair_count(), kFriction, false);
   const BondingCriterion criterion{scene.particles, forces.bonded, nullptr};
   ContactSummary summary;
+  LanePassScratch scratch;  // as a stepper keeps it
   for (auto _ : state) {
-    summary =
-        simd ? simd_pair_forces(scene.particles, scene, list, constants, criterion, forces, history)
-             : compute_pair_forces<kFriction, false>(scene.particles, scene, list, law, criterion,
-                                                     forces, history);
+    summary = simd ? simd_pair_forces(scene.particles, scene, list, constants, criterion, forces,
+                                      history, nullptr, nullptr, &scratch)
+                   : compute_pair_forces<kFriction, false>(scene.particles, scene, list, law,
+                                                           criterion, forces, history);
     benchmark::DoNotOptimize(forces.fx.data());
   }
   if (bonded && summary.bonds != summary.contacts) state.SkipWithError("pairs are not bonded");

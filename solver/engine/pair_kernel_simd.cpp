@@ -13,6 +13,7 @@
 #define HWY_TARGET_INCLUDE "solver/engine/pair_kernel_simd.cpp"
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
 #include <hwy/highway.h>
+#include <omp.h>
 
 #include "solver/models/contact_lanes-inl.h"
 
@@ -39,6 +40,9 @@ struct LanePassArgs {
   const std::uint8_t* counted;
   /// Whether each block prefetches the next block's j particles (kPrefetchParticles).
   bool prefetch;
+  /// (x, y, z, r) of every particle and then (vx, vy, vz, m) of every particle, four doubles
+  /// each (FillKinematics), or null: the block gather then reads the particle arrays.
+  const double* kinematics;
 };
 }  // namespace bondem::detail
 #endif
@@ -127,6 +131,46 @@ HWY_INLINE void broadcast_row(const Particles& p, PairBlock& b, std::uint32_t i,
   }
 }
 
+/// The block's differences x_j - x_i + 0 (before shifts) and v_j - v_i, r_j and m_j from the
+/// kinematics records: each pair's two records copied into four arrays of (x, y, z, r) and
+/// (vx, vy, vz, m) quadruples, which LoadInterleaved4 takes into lanes. Lanes past @p count read
+/// what the copies left there and are overwritten by pad_block.
+HWY_INLINE void pack_kinematics(const detail::LanePassArgs& a, PairBlock& b, std::uint32_t first_k,
+                                std::uint32_t count) {
+  const std::uint32_t* HWY_RESTRICT first = b.first;
+  const std::uint32_t* HWY_RESTRICT second = a.list->seconds() + first_k;
+  const double* HWY_RESTRICT positions = a.kinematics;
+  const double* HWY_RESTRICT velocities = a.kinematics + 4 * a.particles->size();
+  HWY_ALIGN double position_i[4 * kLaneBlock], position_j[4 * kLaneBlock];
+  HWY_ALIGN double velocity_i[4 * kLaneBlock], velocity_j[4 * kLaneBlock];
+  for (std::uint32_t s = 0; s < count; ++s) {
+    std::memcpy(position_i + 4 * s, positions + 4 * first[s], 4 * sizeof(double));
+    std::memcpy(velocity_i + 4 * s, velocities + 4 * first[s], 4 * sizeof(double));
+    std::memcpy(position_j + 4 * s, positions + 4 * second[s], 4 * sizeof(double));
+    std::memcpy(velocity_j + 4 * s, velocities + 4 * second[s], 4 * sizeof(double));
+  }
+  const hn::ScalableTag<double> d;
+  const std::size_t lanes = hn::Lanes(d);
+  const auto zero = hn::Zero(d);
+  for (std::uint32_t s = 0; s < count; s += static_cast<std::uint32_t>(lanes)) {
+    hn::Vec<decltype(d)> xi, yi, zi, ri, xj, yj, zj, rj;
+    hn::LoadInterleaved4(d, position_i + 4 * s, xi, yi, zi, ri);
+    hn::LoadInterleaved4(d, position_j + 4 * s, xj, yj, zj, rj);
+    // As the scalar gather: (x_j - x_i) + 0, which turns -0 into +0.
+    hn::Store(hn::Add(hn::Sub(xj, xi), zero), d, b.dx + s);
+    hn::Store(hn::Add(hn::Sub(yj, yi), zero), d, b.dy + s);
+    hn::Store(hn::Add(hn::Sub(zj, zi), zero), d, b.dz + s);
+    hn::Store(rj, d, b.rj + s);
+    hn::Vec<decltype(d)> vxi, vyi, vzi, mi, vxj, vyj, vzj, mj;
+    hn::LoadInterleaved4(d, velocity_i + 4 * s, vxi, vyi, vzi, mi);
+    hn::LoadInterleaved4(d, velocity_j + 4 * s, vxj, vyj, vzj, mj);
+    hn::Store(hn::Sub(vxj, vxi), d, b.dvx + s);
+    hn::Store(hn::Sub(vyj, vyi), d, b.dvy + s);
+    hn::Store(hn::Sub(vzj, vzi), d, b.dvz + s);
+    hn::Store(mj, d, b.mj + s);
+  }
+}
+
 /// Gathers j's kinematics and the pair's differences for the block's @p count pairs, i =
 /// b.first[s] (broadcast_row) and j the list's second particle of pair first_k + s, into lane
 /// order: a few short loops, each with few streams, keep the pointers in registers.
@@ -136,7 +180,9 @@ HWY_NOINLINE void pack_block(const detail::LanePassArgs& a, PairBlock& b, std::u
   const Particles& p = *a.particles;
   const std::uint32_t* HWY_RESTRICT first = b.first;
   const std::uint32_t* HWY_RESTRICT second = a.list->seconds() + first_k;
-  {
+  if (a.kinematics != nullptr) {
+    pack_kinematics(a, b, first_k, count);
+  } else {
     const double* HWY_RESTRICT x = p.x.data();
     const double* HWY_RESTRICT y = p.y.data();
     const double* HWY_RESTRICT z = p.z.data();
@@ -147,6 +193,8 @@ HWY_NOINLINE void pack_block(const detail::LanePassArgs& a, PairBlock& b, std::u
       b.dy[s] = y[second[s]] - y[first[s]] + 0.0;
       b.dz[s] = z[second[s]] - z[first[s]] + 0.0;
     }
+  }
+  {
     // Periodic images are rare: most pairs see j itself and need no other shift.
     const std::uint8_t* HWY_RESTRICT image = a.list->images() + first_k;
     // In locals: a store into the block could otherwise alias the argument's pointers, which
@@ -172,15 +220,13 @@ HWY_NOINLINE void pack_block(const detail::LanePassArgs& a, PairBlock& b, std::u
       }
     }
   }
-  {
+  if (a.kinematics == nullptr) {
     const double* HWY_RESTRICT radius = p.radius.data();
     const double* HWY_RESTRICT mass = p.mass.data();
     for (std::uint32_t s = 0; s < count; ++s) {
       b.rj[s] = radius[second[s]];
       b.mj[s] = mass[second[s]];
     }
-  }
-  {
     const double* HWY_RESTRICT vx = p.vx.data();
     const double* HWY_RESTRICT vy = p.vy.data();
     const double* HWY_RESTRICT vz = p.vz.data();
@@ -535,6 +581,34 @@ ContactSummary LanePass(const detail::LanePassArgs& a, std::size_t first_row,
   return summary;
 }
 
+/// Writes the quadruples of particles [@p first, @p end) of LanePassArgs::kinematics, at
+/// @p records (8 n doubles): (x, y, z, r) at records + 4 i, (vx, vy, vz, m) at records + 4 n + 4 i.
+void FillKinematics(const Particles& p, std::size_t first, std::size_t end, double* records) {
+  const hn::ScalableTag<double> d;
+  const std::size_t lanes = hn::Lanes(d);
+  double* HWY_RESTRICT positions = records;
+  double* HWY_RESTRICT velocities = records + 4 * p.size();
+  std::size_t i = first;
+  for (; i + lanes <= end; i += lanes) {
+    hn::StoreInterleaved4(hn::LoadU(d, p.x.data() + i), hn::LoadU(d, p.y.data() + i),
+                          hn::LoadU(d, p.z.data() + i), hn::LoadU(d, p.radius.data() + i), d,
+                          positions + 4 * i);
+    hn::StoreInterleaved4(hn::LoadU(d, p.vx.data() + i), hn::LoadU(d, p.vy.data() + i),
+                          hn::LoadU(d, p.vz.data() + i), hn::LoadU(d, p.mass.data() + i), d,
+                          velocities + 4 * i);
+  }
+  for (; i < end; ++i) {
+    positions[4 * i] = p.x[i];
+    positions[4 * i + 1] = p.y[i];
+    positions[4 * i + 2] = p.z[i];
+    positions[4 * i + 3] = p.radius[i];
+    velocities[4 * i] = p.vx[i];
+    velocities[4 * i + 1] = p.vy[i];
+    velocities[4 * i + 2] = p.vz[i];
+    velocities[4 * i + 3] = p.mass[i];
+  }
+}
+
 ContactSummary LanePassWithFriction(const detail::LanePassArgs& a, std::size_t first_row,
                                     std::size_t last_row) {
   return LanePass<true>(a, first_row, last_row);
@@ -551,6 +625,7 @@ HWY_AFTER_NAMESPACE();
 namespace bondem {
 
 HWY_EXPORT(LanePassWithFriction);
+HWY_EXPORT(FillKinematics);
 HWY_EXPORT(LanePassWithoutFriction);
 
 namespace {
@@ -671,7 +746,7 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
                                 std::span<const LanePairConstants> constants,
                                 const BondingCriterion& criterion_met, PairForces& out,
                                 PairHistory& history, const std::uint8_t* counted,
-                                ThreadSplit* split) {
+                                ThreadSplit* split, LanePassScratch* scratch) {
   simd_target_in_use();  // chooses the best target on first use
   double shift_x[27], shift_y[27], shift_z[27];
   for (std::size_t code = 0; code < 27; ++code) {
@@ -686,6 +761,30 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
   };
   const int uniform_criterion =
       all(BondCriterion::kNever) ? 0 : (all(BondCriterion::kAlways) ? 1 : -1);
+  const std::size_t n = p.size();
+  const std::size_t chunks = (n + kPairPassChunk - 1) / kPairPassChunk;
+  ThreadSplit equal_shares;
+  if (split == nullptr) split = &equal_shares;
+  // Each thread one contiguous run of chunks, so that its rows are about the particles its
+  // sweeps and pass 2 take.
+  split->prepare(chunks, threads_in_use(n));
+  LanePassScratch own_scratch;
+  if (scratch == nullptr) scratch = &own_scratch;
+  const double* kinematics = nullptr;
+  if (n < kPrefetchParticles) {
+    // In cache, where nothing is prefetched: each pair then reads two quadruples of each of its
+    // particles, copied here once a pass, instead of eight arrays.
+    scratch->kinematics.resize(8 * n);
+    double* to = scratch->kinematics.data();
+    const int shares = split->threads();
+    const auto fill = HWY_DYNAMIC_DISPATCH(FillKinematics);
+#pragma omp parallel num_threads(shares) if (shares > 1)
+    for (int t = omp_get_thread_num(); t < shares; t += omp_get_num_threads()) {
+      fill(p, std::min(n, split->begin(t) * kPairPassChunk),
+           std::min(n, split->begin(t + 1) * kPairPassChunk), to);
+    }
+    kinematics = to;
+  }
   const detail::LanePassArgs args{&p,
                                   &scene,
                                   &list,
@@ -700,16 +799,10 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
                                   shift_y,
                                   shift_z,
                                   counted,
-                                  p.size() >= kPrefetchParticles};
+                                  p.size() >= kPrefetchParticles,
+                                  kinematics};
   const auto pass = scene.friction ? HWY_DYNAMIC_DISPATCH(LanePassWithFriction)
                                    : HWY_DYNAMIC_DISPATCH(LanePassWithoutFriction);
-  const std::size_t n = p.size();
-  const std::size_t chunks = (n + kPairPassChunk - 1) / kPairPassChunk;
-  ThreadSplit equal_shares;
-  if (split == nullptr) split = &equal_shares;
-  // Each thread one contiguous run of chunks, so that its rows are about the particles its
-  // sweeps and pass 2 take.
-  split->prepare(chunks, threads_in_use(n));
   return split->run(
       ContactSummary{},
       [&](int, std::size_t first_chunk, std::size_t end_chunk) {

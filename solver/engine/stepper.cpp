@@ -101,7 +101,7 @@ ContactSummary Stepper::evaluate_forces(const Law& law) {
   ContactSummary pairs =
       lanes
           ? simd_pair_forces(scene_.particles, scene_, list_, lane_constants_, criterion,
-                             pair_forces_, history_, counted, &pair_split_)
+                             pair_forces_, history_, counted, &pair_split_, &lane_scratch_)
           : compute_pair_forces<kFriction, kModels>(scene_.particles, scene_, list_, law, criterion,
                                                     pair_forces_, history_, counted, &pair_split_);
   // The boundaries' frames at their poses of this step, into storage kept across steps.

@@ -337,6 +337,7 @@ class Stepper {
   /// Per material pair, the SIMD pass's constants; empty where the run takes the scalar pass
   /// (simd_pass_applies).
   std::vector<LanePairConstants> lane_constants_;
+  LanePassScratch lane_scratch_;  ///< the SIMD pass's buffers, kept across steps
   /// Each pass's shares of the particles per thread, balanced by measured time (thread_split.hpp).
   ThreadSplit opening_split_, pair_split_, gather_split_, closing_split_;
   ContactSummary contacts_;
