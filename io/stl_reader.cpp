@@ -1,14 +1,5 @@
 #include "io/stl_reader.hpp"
 
-#include <vtkCallbackCommand.h>
-#include <vtkCellArray.h>
-#include <vtkCommand.h>
-#include <vtkIdList.h>
-#include <vtkNew.h>
-#include <vtkPoints.h>
-#include <vtkPolyData.h>
-#include <vtkSTLReader.h>
-
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cctype>
@@ -19,6 +10,8 @@
 #include <string>
 #include <system_error>
 #include <vector>
+
+#include "io/vtk_module.hpp"
 
 namespace bondem {
 namespace {
@@ -70,42 +63,20 @@ StlMesh read_stl(const std::filesystem::path& path, double scale, const Eigen::V
   StlMesh result;
   result.facets_in_file = count_facets(path);
 
-  vtkNew<vtkSTLReader> reader;
-  reader->SetFileName(path.string().c_str());
-  reader->MergingOn();
-  // With an observer VTK reports its errors to us instead of printing them.
-  std::string vtk_error;
-  vtkNew<vtkCallbackCommand> on_error;
-  on_error->SetClientData(&vtk_error);
-  on_error->SetCallback([](vtkObject*, unsigned long, void* client, void* call) {
-    auto* message = static_cast<std::string*>(client);
-    if (message->empty() && call != nullptr) *message = static_cast<const char*>(call);
-  });
-  reader->AddObserver(vtkCommand::ErrorEvent, on_error);
-  reader->Update();
-  if (!vtk_error.empty()) {
+  StlGeometry geometry;
+  stl_geometry_reader()(path.string().c_str(), &geometry);
+  if (!geometry.error.empty()) {
     // VTK's message ends with a newline and may carry the source location; keep the first line.
-    fail(path, "not a readable STL file (" + vtk_error.substr(0, vtk_error.find('\n')) + ")");
+    fail(path,
+         "not a readable STL file (" + geometry.error.substr(0, geometry.error.find('\n')) + ")");
   }
-
-  vtkPolyData* data = reader->GetOutput();
-  vtkPoints* points = data->GetPoints();
   TriangleMesh& mesh = result.mesh;
-  const vtkIdType n_points = points != nullptr ? points->GetNumberOfPoints() : 0;
-  mesh.vertices.reserve(static_cast<std::size_t>(n_points));
-  for (vtkIdType k = 0; k < n_points; ++k) {
-    double x[3];
-    points->GetPoint(k, x);
-    mesh.vertices.emplace_back(scale * Eigen::Vector3d(x[0], x[1], x[2]) + offset);
-  }
-  vtkCellArray* polys = data->GetPolys();
-  vtkNew<vtkIdList> ids;
-  const vtkIdType n_polys = polys != nullptr ? polys->GetNumberOfCells() : 0;
-  for (vtkIdType c = 0; c < n_polys; ++c) {
-    polys->GetCellAtId(c, ids);
-    if (ids->GetNumberOfIds() != 3) continue;  // counted as dropped below
-    const std::array<int, 3> tri{static_cast<int>(ids->GetId(0)), static_cast<int>(ids->GetId(1)),
-                                 static_cast<int>(ids->GetId(2))};
+  mesh.vertices.reserve(geometry.points.size());
+  for (const Eigen::Vector3d& x : geometry.points) mesh.vertices.emplace_back(scale * x + offset);
+  for (const std::vector<std::int64_t>& ids : geometry.polygons) {
+    if (ids.size() != 3) continue;  // counted as dropped below
+    const std::array<int, 3> tri{static_cast<int>(ids[0]), static_cast<int>(ids[1]),
+                                 static_cast<int>(ids[2])};
     const Eigen::Vector3d& a = mesh.vertices[tri[0]];
     const Eigen::Vector3d& b = mesh.vertices[tri[1]];
     const Eigen::Vector3d& d = mesh.vertices[tri[2]];

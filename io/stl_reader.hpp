@@ -1,6 +1,7 @@
 #pragma once
 /// @file stl_reader.hpp
-/// Triangle meshes from STL files (ASCII or binary), through VTK's vtkSTLReader.
+/// Triangle meshes from STL files (ASCII or binary), through VTK's vtkSTLReader (in the module
+/// libbondem_vtk.so, loaded on first use: vtk_module.hpp).
 
 #include <Eigen/Core>
 #include <filesystem>

@@ -81,6 +81,17 @@ expect_bad_input("'walls.0.motion.interpolation': unknown interpolation 'cubic'"
                  --output ${WORK}/run_cubic)
 expect_bad_input("'walls.0.motion.keys.0.spin': unknown key" run ${WORK}/drum.yaml --quiet
                  --set walls.0.motion.keys.0.spin=1 --output ${WORK}/run_key_typo)
+# VTK's STL reader is a module loaded on first use (io/vtk_module.hpp): one that cannot be
+# loaded fails the run with the place tried and the variable that names another, leaving nothing.
+execute_process(COMMAND ${CMAKE_COMMAND} -E env BONDEM_VTK_MODULE=${WORK}/no_such_module.so
+                        ${BONDEM} run ${WORK}/drum.yaml --quiet --output ${WORK}/run_no_module
+                RESULT_VARIABLE status ERROR_VARIABLE err OUTPUT_QUIET)
+if(status EQUAL 0)
+  message(FATAL_ERROR "a run without its VTK module succeeded")
+endif()
+expect_text("${err}" "cannot load bondem's VTK module libbondem_vtk.so (set BONDEM_VTK_MODULE"
+            "missing module")
+expect_text("${err}" "${WORK}/no_such_module.so" "missing module's path")
 file(GLOB leftovers ${WORK}/run_*)
 if(leftovers)
   message(FATAL_ERROR "refused runs left output behind: ${leftovers}")
