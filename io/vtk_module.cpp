@@ -9,9 +9,9 @@
 
 namespace bondem {
 
-StlGeometryReader stl_geometry_reader() {
+void* vtk_module_function(const char* name) {
   static std::once_flag once;
-  static StlGeometryReader reader = nullptr;
+  static void* module = nullptr;
   static std::string tried;
   std::call_once(once, [] {
     std::vector<std::string> places;
@@ -27,21 +27,24 @@ StlGeometryReader stl_geometry_reader() {
     }
     for (const std::string& place : places) {
       // RTLD_LOCAL: VTK's symbols stay the module's; RTLD_NOW: a broken module fails here.
-      void* module = dlopen(place.c_str(), RTLD_NOW | RTLD_LOCAL);
-      if (module == nullptr) {
-        tried += "\n  " + place + ": " + dlerror();
-        continue;
-      }
-      reader = reinterpret_cast<StlGeometryReader>(dlsym(module, "bondem_read_stl_geometry"));
-      if (reader != nullptr) return;
-      tried += "\n  " + place + ": no bondem_read_stl_geometry";
+      module = dlopen(place.c_str(), RTLD_NOW | RTLD_LOCAL);
+      if (module != nullptr) return;
+      tried += "\n  " + place + ": " + dlerror();
     }
   });
-  if (reader == nullptr) {
+  if (module == nullptr) {
     throw std::runtime_error(std::string("cannot load bondem's VTK module ") + kVtkModuleName +
                              " (set BONDEM_VTK_MODULE to its path); tried:" + tried);
   }
-  return reader;
+  void* function = dlsym(module, name);
+  if (function == nullptr) {
+    throw std::runtime_error(std::string("bondem's VTK module has no function ") + name);
+  }
+  return function;
+}
+
+StlGeometryReader stl_geometry_reader() {
+  return reinterpret_cast<StlGeometryReader>(vtk_module_function("bondem_read_stl_geometry"));
 }
 
 }  // namespace bondem

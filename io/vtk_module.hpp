@@ -1,10 +1,12 @@
 #pragma once
 /// @file vtk_module.hpp
-/// VTK's STL reader lives in a module of its own, libbondem_vtk.so, loaded the first time a run
-/// reads an STL file: the VTK libraries it needs (vtkIOGeometry and, through it, VTK's rendering
-/// and image readers: 24 more shared libraries) cost every start of bondem about 16 ms to load
-/// and relocate, 1 % of a 2 000-step run of the 20 800 peer lattice. The module exports one
-/// function with C linkage, bondem_read_stl_geometry (signature StlGeometryReader).
+/// Everything bondem does with VTK (the VTK series writer, read_vtp, the STL reader) lives in a
+/// module of its own, libbondem_vtk.so, loaded the first time a run writes VTK output, reads an
+/// STL file or reads a .vtp file back: VTK's libraries (40 shared libraries with the STL
+/// reader's) cost every start of bondem about 30 ms to load and relocate, 1.5 % of a 2 000-step
+/// run of the 20 800 peer lattice, which writes no VTK. The module exports functions with C
+/// linkage, found by name: bondem_vtk_new_series, bondem_vtk_read_vtp,
+/// bondem_vtk_particle_array_names (vtk_series.cpp) and bondem_read_stl_geometry.
 
 #include <Eigen/Core>
 #include <array>
@@ -28,9 +30,13 @@ using StlGeometryReader = void (*)(const char* path, StlGeometry* out);
 /// The module's name, as dlopen finds it.
 inline constexpr const char* kVtkModuleName = "libbondem_vtk.so";
 
-/// The module's STL reader, loading the module on first use: from $BONDEM_VTK_MODULE when set,
-/// else beside the running executable, else from where the build or the installation put it,
-/// else wherever dlopen finds kVtkModuleName. Throws std::runtime_error naming the places tried.
+/// The module's function called @p name, loading the module on first use: from
+/// $BONDEM_VTK_MODULE when set, else beside the running executable, else from where the build or
+/// the installation put it, else wherever dlopen finds kVtkModuleName. Throws std::runtime_error
+/// naming the places tried.
+void* vtk_module_function(const char* name);
+
+/// The module's STL reader (vtk_module_function).
 StlGeometryReader stl_geometry_reader();
 
 }  // namespace bondem

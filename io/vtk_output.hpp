@@ -17,11 +17,13 @@
 /// per process, `particles_NNNNNN_P.vtp` (P = 0, 1, ...), with a summary `particles_NNNNNN.pvtp`
 /// that lists them; the .pvd collections then name the .pvtp files (set_pieces()).
 ///
-/// VTK types stay out of this header: VTK is a private dependency of bondem_core.
+/// VTK types stay out of this header: VTK is linked only into the module libbondem_vtk.so
+/// (vtk_module.hpp), which bondem loads with the first writer.
 
 #include <Eigen/Core>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -53,26 +55,55 @@ struct BoundaryLoadRecord {
   Eigen::Vector3d moment = Eigen::Vector3d::Zero();  ///< about the boundary's reference point
 };
 
+/// A per-particle scalar the caller derives per frame (coordination, bond count), written
+/// besides the particles' own fields; `values` has one entry per particle, in the order of
+/// Particles, and must stay valid during VtkSeriesWriter::write_frame().
+struct VtkScalarField {
+  std::string name;
+  const std::vector<double>* values = nullptr;
+};
+/// A derived per-particle 3-vector, as three component arrays (the SoA layout).
+struct VtkVectorField {
+  std::string name;
+  const StaggeredVector<double>* x = nullptr;
+  const StaggeredVector<double>* y = nullptr;
+  const StaggeredVector<double>* z = nullptr;
+};
+
+/// The interface of the VTK series writer in the module libbondem_vtk.so (io/vtk_series.hpp),
+/// to which VtkSeriesWriter forwards every call; the methods are VtkSeriesWriter's.
+class VtkSeriesBackend {
+ public:
+  virtual ~VtkSeriesBackend() = default;
+  virtual void set_wall_extent(double side) = 0;
+  virtual void select_particle_arrays(std::vector<std::string> names) = 0;
+  virtual void set_material_names(std::vector<std::string> names) = 0;
+  virtual void set_pieces(int piece, int pieces) = 0;
+  virtual void publish() const = 0;
+  virtual void set_bonds_series(bool on) = 0;
+  virtual void set_boundary_loads(std::vector<BoundaryLoadRecord> loads) = 0;
+  virtual void write_frame(double time, const Particles& particles,
+                           const std::vector<ContactRecord>& contacts,
+                           const std::vector<Boundary>& boundaries, const Domain& domain,
+                           const std::vector<VtkScalarField>& scalars,
+                           const std::vector<VtkVectorField>& vectors) = 0;
+  virtual void resume(const std::function<bool(double)>& keep_frame,
+                      const std::vector<Boundary>& boundaries, const Domain& domain) = 0;
+  virtual std::size_t frames() const = 0;
+  virtual const std::string& directory() const = 0;
+};
+
 /// Writes a time series for ParaView into one directory (see the file comment for the layout).
 /// Files are binary appended, zlib compressed, and each appears whole or not at all (written to
 /// `<name>.tmp.<pid>` and renamed); the .pvd collections are rewritten after every frame, so a run
 /// that stops early still opens in ParaView.
+/// VTK output goes through the module libbondem_vtk.so (vtk_module.hpp), loaded by the first
+/// writer or read_vtp: a run without VTK output does not load VTK's libraries (about 30 ms of
+/// every start). Throws std::runtime_error naming the places tried when it cannot be loaded.
 class VtkSeriesWriter {
  public:
-  /// A per-particle scalar the caller derives per frame (coordination, bond count), written
-  /// besides the particles' own fields; `values` has one entry per particle, in the order of
-  /// Particles, and must stay valid during write_frame().
-  struct ScalarField {
-    std::string name;
-    const std::vector<double>* values = nullptr;
-  };
-  /// A derived per-particle 3-vector, as three component arrays (the SoA layout).
-  struct VectorField {
-    std::string name;
-    const StaggeredVector<double>* x = nullptr;
-    const StaggeredVector<double>* y = nullptr;
-    const StaggeredVector<double>* z = nullptr;
-  };
+  using ScalarField = VtkScalarField;
+  using VectorField = VtkVectorField;
 
   /// Create @p directory (and missing parents). Throws std::runtime_error naming it on failure.
   explicit VtkSeriesWriter(std::string directory);
@@ -88,10 +119,14 @@ class VtkSeriesWriter {
   void set_wall_extent(double side);
 
   /// Write only the particle arrays named in @p names (points are always written); empty: all.
-  void select_particle_arrays(std::vector<std::string> names) { selected_ = std::move(names); }
+  void select_particle_arrays(std::vector<std::string> names) {
+    backend_->select_particle_arrays(std::move(names));
+  }
 
   /// Names of the materials by index: field data "material_names" of every particle file.
-  void set_material_names(std::vector<std::string> names) { material_names_ = std::move(names); }
+  void set_material_names(std::vector<std::string> names) {
+    backend_->set_material_names(std::move(names));
+  }
 
   /// Write piece @p piece of @p pieces of every frame (a run of several processes, each with a
   /// writer on the same directory): particles, contacts and bonds go to
@@ -106,11 +141,13 @@ class VtkSeriesWriter {
   void publish() const;
 
   /// Also write the bonded contacts as a series of their own, bonds_NNNNNN.vtp.
-  void set_bonds_series(bool on) { bonds_ = on; }
+  void set_bonds_series(bool on) { backend_->set_bonds_series(on); }
 
   /// The boundary loads of the next frame: field data of its particle file ("boundary_names",
   /// "boundary_force", "boundary_moment", one tuple per boundary).
-  void set_boundary_loads(std::vector<BoundaryLoadRecord> loads) { loads_ = std::move(loads); }
+  void set_boundary_loads(std::vector<BoundaryLoadRecord> loads) {
+    backend_->set_boundary_loads(std::move(loads));
+  }
 
   /// Names of the point arrays a particle file of @p particles has, with the derived arrays
   /// @p derived (scalars and vectors alike): what select_particle_arrays() may name.
@@ -163,40 +200,12 @@ class VtkSeriesWriter {
               const std::vector<Boundary>& boundaries, const Domain& domain);
 
   /// Number of frames written.
-  std::size_t frames() const { return times_.size(); }
+  std::size_t frames() const { return backend_->frames(); }
   /// The output directory.
-  const std::string& directory() const { return directory_; }
+  const std::string& directory() const { return backend_->directory(); }
 
  private:
-  /// What a wall file was drawn from; a frame with the same geometry reuses that file.
-  struct WallGeometry {
-    std::vector<PlaneWall> walls;
-    Domain domain;
-    double extent = 0.0;
-    bool moving = false;  ///< some plane moves: never reused
-    bool same_as(const std::vector<PlaneWall>& other_walls, const Domain& other_domain,
-                 double other_extent) const;
-  };
-
-  void write_collections() const;
-  /// The file of frame @p frame of @p series that the collections list: the frame's .vtp, or for
-  /// a frame in pieces its .pvtp summary.
-  std::string listed_file(const char* series, std::size_t frame) const;
-
-  std::string directory_;
-  double wall_extent_ = 0.0;
-  std::vector<double> times_;  ///< time of every frame written
-  /// Of every frame written, whether it is in pieces (a restart on another number of processes
-  /// continues a series of whole frames in pieces, or the other way round).
-  std::vector<bool> in_pieces_;
-  std::vector<std::string> wall_files_;      ///< wall file of every frame written
-  std::optional<WallGeometry> last_walls_;   ///< geometry of the newest wall file
-  bool tools_ = false;                       ///< moving tools were written: keep a tools.pvd series
-  std::vector<std::string> selected_;        ///< particle arrays to write; empty: all
-  std::vector<std::string> material_names_;  ///< by material index
-  std::vector<BoundaryLoadRecord> loads_;    ///< of the next frame
-  bool bonds_ = false;                       ///< write the bonds series
-  int piece_ = 0, pieces_ = 1;               ///< this writer's piece of each frame, of how many
+  std::unique_ptr<VtkSeriesBackend> backend_;
 };
 
 /// One data array read back from a .vtp file.
