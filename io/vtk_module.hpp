@@ -9,7 +9,6 @@
 /// bondem_vtk_particle_array_names (vtk_series.cpp) and bondem_read_stl_geometry.
 
 #include <Eigen/Core>
-#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -17,7 +16,7 @@
 namespace bondem {
 
 /// What vtkSTLReader gives for a file: the points, coincident ones merged, and each polygon as
-/// the ids of its points (a polygon that is not a triangle has an empty id list).
+/// the ids of its points (read_stl keeps the triangles).
 struct StlGeometry {
   std::vector<Eigen::Vector3d> points;
   std::vector<std::vector<std::int64_t>> polygons;

@@ -133,8 +133,8 @@ HWY_INLINE void broadcast_row(const Particles& p, PairBlock& b, std::uint32_t i,
 
 /// The block's differences x_j - x_i + 0 (before shifts) and v_j - v_i, r_j and m_j from the
 /// kinematics records: each pair's two records copied into four arrays of (x, y, z, r) and
-/// (vx, vy, vz, m) quadruples, which LoadInterleaved4 takes into lanes. Lanes past @p count read
-/// what the copies left there and are overwritten by pad_block.
+/// (vx, vy, vz, m) quadruples, which LoadInterleaved4 takes into lanes. Lanes past @p count take
+/// zeros, and pad_block overwrites what they give.
 HWY_INLINE void pack_kinematics(const detail::LanePassArgs& a, PairBlock& b, std::uint32_t first_k,
                                 std::uint32_t count) {
   const std::uint32_t* HWY_RESTRICT first = b.first;
@@ -152,6 +152,10 @@ HWY_INLINE void pack_kinematics(const detail::LanePassArgs& a, PairBlock& b, std
   const hn::ScalableTag<double> d;
   const std::size_t lanes = hn::Lanes(d);
   const auto zero = hn::Zero(d);
+  const std::size_t padded = (count + lanes - 1) / lanes * lanes;
+  for (double* quadruples : {position_i, position_j, velocity_i, velocity_j}) {
+    std::fill(quadruples + 4 * count, quadruples + 4 * padded, 0.0);
+  }
   for (std::uint32_t s = 0; s < count; s += static_cast<std::uint32_t>(lanes)) {
     hn::Vec<decltype(d)> xi, yi, zi, ri, xj, yj, zj, rj;
     hn::LoadInterleaved4(d, position_i + 4 * s, xi, yi, zi, ri);
@@ -773,7 +777,8 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
   const double* kinematics = nullptr;
   if (n < kPrefetchParticles) {
     // In cache, where nothing is prefetched: each pair then reads two quadruples of each of its
-    // particles, copied here once a pass, instead of eight arrays.
+    // particles, copied here once a pass, instead of eight arrays. A region of its own: a
+    // thread's pairs read particles of the other threads' shares.
     scratch->kinematics.resize(8 * n);
     double* to = scratch->kinematics.data();
     const int shares = split->threads();
@@ -784,6 +789,8 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
            std::min(n, split->begin(t + 1) * kPairPassChunk), to);
     }
     kinematics = to;
+  } else {
+    StaggeredVector<double>().swap(scratch->kinematics);  // a run that grew past the threshold
   }
   const detail::LanePassArgs args{&p,
                                   &scene,
