@@ -64,7 +64,8 @@ StlMesh read_stl(const std::filesystem::path& path, double scale, const Eigen::V
   result.facets_in_file = count_facets(path);
 
   StlGeometry geometry;
-  stl_geometry_reader()(path.string().c_str(), &geometry);
+  vtk_module_function<StlGeometryReader>("bondem_read_stl_geometry")(path.string().c_str(),
+                                                                     &geometry);
   if (!geometry.error.empty()) {
     // VTK's message ends with a newline and may carry the source location; keep the first line.
     fail(path,

@@ -43,8 +43,4 @@ void* vtk_module_function(const char* name) {
   return function;
 }
 
-StlGeometryReader stl_geometry_reader() {
-  return reinterpret_cast<StlGeometryReader>(vtk_module_function("bondem_read_stl_geometry"));
-}
-
 }  // namespace bondem

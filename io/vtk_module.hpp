@@ -35,7 +35,10 @@ inline constexpr const char* kVtkModuleName = "libbondem_vtk.so";
 /// naming the places tried.
 void* vtk_module_function(const char* name);
 
-/// The module's STL reader (vtk_module_function).
-StlGeometryReader stl_geometry_reader();
+/// vtk_module_function as a pointer to the function type @p Function it has.
+template <class Function>
+Function vtk_module_function(const char* name) {
+  return reinterpret_cast<Function>(vtk_module_function(name));
+}
 
 }  // namespace bondem

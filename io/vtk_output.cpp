@@ -9,11 +9,6 @@
 namespace bondem {
 namespace {
 
-template <class Function>
-Function module_function(const char* name) {
-  return reinterpret_cast<Function>(vtk_module_function(name));
-}
-
 const VtpArray* find_array(const std::vector<VtpArray>& arrays, const std::string& name) {
   for (const VtpArray& array : arrays) {
     if (array.name == name) return &array;
@@ -24,8 +19,8 @@ const VtpArray* find_array(const std::vector<VtpArray>& arrays, const std::strin
 }  // namespace
 
 VtkSeriesWriter::VtkSeriesWriter(std::string directory)
-    : backend_(module_function<VtkSeriesBackend* (*)(const std::string*)>("bondem_vtk_new_series")(
-          &directory)) {}
+    : backend_(vtk_module_function<VtkSeriesBackend* (*)(const std::string*)>(
+          "bondem_vtk_new_series")(&directory)) {}
 
 void VtkSeriesWriter::set_wall_extent(double side) {
   backend_->set_wall_extent(side);
@@ -42,8 +37,8 @@ void VtkSeriesWriter::publish() const {
 std::vector<std::string> VtkSeriesWriter::particle_array_names(
     const Particles& particles, const std::vector<std::string>& derived) {
   std::vector<std::string> names;
-  module_function<void (*)(const Particles*, const std::vector<std::string>*,
-                           std::vector<std::string>*)>("bondem_vtk_particle_array_names")(
+  vtk_module_function<void (*)(const Particles*, const std::vector<std::string>*,
+                               std::vector<std::string>*)>("bondem_vtk_particle_array_names")(
       &particles, &derived, &names);
   return names;
 }
@@ -71,8 +66,8 @@ const VtpArray* VtpContents::cell_array(const std::string& name) const {
 
 VtpContents read_vtp(const std::string& path) {
   VtpContents contents;
-  module_function<void (*)(const std::string*, VtpContents*)>("bondem_vtk_read_vtp")(&path,
-                                                                                     &contents);
+  vtk_module_function<void (*)(const std::string*, VtpContents*)>("bondem_vtk_read_vtp")(&path,
+                                                                                         &contents);
   return contents;
 }
 
