@@ -746,6 +746,12 @@ std::vector<LanePairConstants> lane_pair_constants(const Scene& scene) {
 /// lattice 5 % slower, pass 1 at 8 000 particles 10-14 %).
 constexpr std::size_t kPrefetchParticles = 32768;
 
+double* records_for_sweep(LanePassScratch& scratch, std::size_t particles) {
+  if (particles >= kPrefetchParticles) return nullptr;
+  scratch.kinematics.resize(8 * particles);
+  return scratch.kinematics.data();
+}
+
 ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const NeighborList& list,
                                 std::span<const LanePairConstants> constants,
                                 const BondingCriterion& criterion_met, PairForces& out,
@@ -777,21 +783,24 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
   const double* kinematics = nullptr;
   if (n < kPrefetchParticles) {
     // In cache, where nothing is prefetched: each pair then reads two quadruples of each of its
-    // particles, copied here once a pass, instead of eight arrays. A region of its own: a
-    // thread's pairs read particles of the other threads' shares.
-    scratch->kinematics.resize(8 * n);
-    double* to = scratch->kinematics.data();
-    const int shares = split->threads();
-    const auto fill = HWY_DYNAMIC_DISPATCH(FillKinematics);
+    // particles instead of eight arrays, written by the opening sweep or else copied here. A
+    // region of its own: a thread's pairs read particles of the other threads' shares.
+    if (!scratch->current || scratch->kinematics.size() != 8 * n) {
+      scratch->kinematics.resize(8 * n);
+      double* to = scratch->kinematics.data();
+      const int shares = split->threads();
+      const auto fill = HWY_DYNAMIC_DISPATCH(FillKinematics);
 #pragma omp parallel num_threads(shares) if (shares > 1)
-    for (int t = omp_get_thread_num(); t < shares; t += omp_get_num_threads()) {
-      fill(p, std::min(n, split->begin(t) * kPairPassChunk),
-           std::min(n, split->begin(t + 1) * kPairPassChunk), to);
+      for (int t = omp_get_thread_num(); t < shares; t += omp_get_num_threads()) {
+        fill(p, std::min(n, split->begin(t) * kPairPassChunk),
+             std::min(n, split->begin(t + 1) * kPairPassChunk), to);
+      }
     }
-    kinematics = to;
+    kinematics = scratch->kinematics.data();
   } else {
     StaggeredVector<double>().swap(scratch->kinematics);  // a run that grew past the threshold
   }
+  scratch->current = false;  // the particles move on after this pass
   const detail::LanePassArgs args{&p,
                                   &scene,
                                   &list,

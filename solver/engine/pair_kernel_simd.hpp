@@ -71,10 +71,20 @@ std::vector<LanePairConstants> lane_pair_constants(const Scene& scene);
 /// What the SIMD pass keeps from call to call: below the particle count at which the pass
 /// prefetches (out of cache), each particle's position, radius, velocity and mass as two
 /// quadruples, which the block gather copies with two loads where it read eight arrays. The
-/// copy costs about 3 % of a run of the 20 800 peer lattice and the gather's share fell by 5 %.
+/// copy costs about 3 % of a run of the 20 800 peer lattice and the gather's share fell by 5 %;
+/// written by the opening sweep instead (records_for_sweep), it costs a few stores there.
 struct LanePassScratch {
   StaggeredVector<double> kinematics;  ///< 8 values per particle (pair_kernel_simd.cpp)
+  /// Whether @c kinematics holds the particles' kinematics as they are now: set by whoever wrote
+  /// them outside the pass (the opening sweep), cleared by the pass that reads them and by
+  /// anything that moves, reorders, adds or removes particles in between.
+  bool current = false;
 };
+
+/// Where the opening sweep of @p particles particles can write the kinematics records of the
+/// next pass (SweepArrays::records), sized for them, or null when the pass reads none at this
+/// count (it then reads the particle arrays). The caller sets @c current once they are written.
+double* records_for_sweep(LanePassScratch& scratch, std::size_t particles);
 
 /// Pass 1 as compute_pair_forces<kFriction = scene.friction, kModels = false> with the Hertz +
 /// bond law, in lanes of the selected target. Requires simd_pass_applies(scene). @p counted as

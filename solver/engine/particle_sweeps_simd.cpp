@@ -34,21 +34,34 @@ HWY_INLINE void kick_lanes(D d, const SweepArrays& a, hn::Vec<D> half_dt, std::s
   hn::StoreU(hn::LoadU(d, a.vz + i) + kick * hn::LoadU(d, a.fz + i), d, a.vz + i);
 }
 
+/// Writes the lanes at @p i of SweepArrays::records, if any: the position and velocity the
+/// opening sweep just stored, with the radius and mass.
+template <class D>
+HWY_INLINE void store_records(D d, const SweepArrays& a, std::size_t i, hn::Vec<D> x, hn::Vec<D> y,
+                              hn::Vec<D> z, hn::Vec<D> vx, hn::Vec<D> vy, hn::Vec<D> vz) {
+  if (a.records == nullptr) return;
+  hn::StoreInterleaved4(x, y, z, hn::LoadU(d, a.radius + i), d, a.records + 4 * i);
+  hn::StoreInterleaved4(vx, vy, vz, hn::LoadU(d, a.mass + i), d,
+                        a.records + 4 * a.record_count + 4 * i);
+}
+
 /// The opening sweep for the lanes at @p i: returns their squared displacements since the
 /// list's build (all lanes; the caller keeps the counted ones).
 template <class D>
 HWY_INLINE hn::Vec<D> open_lanes(D d, const SweepArrays& a, hn::Vec<D> dt, hn::Vec<D> half_dt,
                                  std::size_t i) {
   kick_lanes(d, a, half_dt, i);
-  const auto step_x = dt * hn::LoadU(d, a.vx + i);
-  const auto step_y = dt * hn::LoadU(d, a.vy + i);
-  const auto step_z = dt * hn::LoadU(d, a.vz + i);
+  const auto vx = hn::LoadU(d, a.vx + i), vy = hn::LoadU(d, a.vy + i), vz = hn::LoadU(d, a.vz + i);
+  const auto step_x = dt * vx;
+  const auto step_y = dt * vy;
+  const auto step_z = dt * vz;
   const auto x = hn::LoadU(d, a.x + i) + step_x;
   const auto y = hn::LoadU(d, a.y + i) + step_y;
   const auto z = hn::LoadU(d, a.z + i) + step_z;
   hn::StoreU(x, d, a.x + i);
   hn::StoreU(y, d, a.y + i);
   hn::StoreU(z, d, a.z + i);
+  store_records(d, a, i, x, y, z, vx, vy, vz);
   if (a.dx != nullptr) {
     hn::StoreU(hn::LoadU(d, a.dx + i) + step_x, d, a.dx + i);
     hn::StoreU(hn::LoadU(d, a.dy + i) + step_y, d, a.dy + i);
@@ -141,6 +154,7 @@ HWY_INLINE hn::Vec<D> close_open_lanes(D d, const SweepArrays& a, hn::Vec<D> dt,
   hn::StoreU(moved_to_x, d, a.x + i);
   hn::StoreU(moved_to_y, d, a.y + i);
   hn::StoreU(moved_to_z, d, a.z + i);
+  store_records(d, a, i, moved_to_x, moved_to_y, moved_to_z, vx, vy, vz);
   if (a.dx != nullptr) {
     hn::StoreU(hn::LoadU(d, a.dx + i) + step_x, d, a.dx + i);
     hn::StoreU(hn::LoadU(d, a.dy + i) + step_y, d, a.dy + i);

@@ -23,6 +23,11 @@ struct SweepArrays {
   const double *mass, *radius;
   const double *x0, *y0, *z0;   ///< positions at the neighbor list's last build
   const std::uint8_t* counted;  ///< 1 where the particle's displacement counts; null: all do
+  /// Where non-null, the opening sweep also writes each particle's new (x, y, z, r) at
+  /// records + 4 i and (vx, vy, vz, m) at records + 4 record_count + 4 i: the pair pass's
+  /// kinematics records (LanePassScratch), written while the values are in registers.
+  double* records = nullptr;
+  std::size_t record_count = 0;  ///< the particles the records hold
 };
 
 /// The opening sweep over particles [@p first, @p end): v += (dt/2) F/m, x += dt v (the tracked

@@ -382,6 +382,7 @@ void Stepper::set_pair_slot(std::uint32_t k, const SlipRecord& record, double si
 void Stepper::rebuild_list() {
   const bool reorder =
       scene_.reorder_interval > 0 && (list_.build_count() % scene_.reorder_interval) == 0;
+  lane_scratch_.current = false;  // the particles are about to move in memory
   CarriedPairs carried = release_pairs();
   if (scene_.domain.remove_outside) remove_outside();
   list_.build(scene_.particles, scene_.domain, list_reach(), reorder);
@@ -422,14 +423,20 @@ SweepArrays Stepper::sweep_arrays() {
           .counted = counted_.empty() ? nullptr : counted_.data()};
 }
 
-double Stepper::drift(double dt) {
+double Stepper::drift(double dt, bool write_records) {
   for (Boundary& boundary : scene_.boundaries) move_boundary(boundary, time_, dt);
   // One sweep: the opening half-kicks, the drift and the list's displacement check each read and
   // write the same particle arrays, which at 10^6 particles come from memory every time. The
   // displacement gets the very increment the position gets, so it stays x - x0 up to rounding
   // and does not jump when the list wraps a coordinate across a periodic boundary.
-  const SweepArrays arrays = sweep_arrays();
+  SweepArrays arrays = sweep_arrays();
   const std::size_t n = scene_.particles.size();
+  if (write_records && !lane_constants_.empty()) {
+    // The SIMD pass's records, written here while each value is in a register: a sweep of its
+    // own over eight arrays and a parallel region less per step.
+    arrays.records = records_for_sweep(lane_scratch_, n);
+    arrays.record_count = n;
+  }
   const std::size_t chunks = (n + kPairPassChunk - 1) / kPairPassChunk;
   // A contiguous run of chunks per thread, moved toward equal times (thread_split.hpp).
   opening_split_.prepare(chunks, threads_in_use(n));
@@ -451,6 +458,7 @@ double Stepper::drift(double dt) {
     // non-finite position or velocity stays so and a finite one overflowing in one drift is
     // beyond any run that reaches this test.
     if (!result.finite) throw diagnose_blow_up(false);
+    lane_scratch_.current = arrays.records != nullptr;
     return result.largest_sq;
   }
   const double largest_sq = opening_split_.run(
@@ -460,6 +468,7 @@ double Stepper::drift(double dt) {
                              std::min(n, end_chunk * kPairPassChunk));
       },
       [](double& largest, double part) { largest = std::max(largest, part); });
+  lane_scratch_.current = arrays.records != nullptr;
   return largest_sq;
 }
 
@@ -534,11 +543,14 @@ void Stepper::step() {
   // Two particles moving toward each other close the gap by twice the largest displacement:
   // rebuild once that displacement exceeds half the skin.
   const double half_skin = 0.5 * scene_.skin;
-  complete_step(move() > half_skin * half_skin);
+  // Nothing touches the particles between this drift and the forces but a rebuild (which
+  // clears the records), so the sweep may write the pair pass's records.
+  complete_step(drift(scene_.time_step, true) > half_skin * half_skin);
 }
 
 double Stepper::move() {
-  return drift(scene_.time_step);
+  // A decomposed run refreshes its ghosts between move() and complete_step(): no records.
+  return drift(scene_.time_step, false);
 }
 
 void Stepper::complete_step(bool rebuild) {

@@ -252,7 +252,9 @@ class Stepper {
   /// The particle arrays of the sweeps (drift, finish_step), as they are now.
   SweepArrays sweep_arrays();
   /// Half kick and drift; returns the largest squared displacement since the last list build.
-  double drift(double dt);
+  /// With @p write_records, also the SIMD pass's kinematics records (LanePassScratch), for a
+  /// force evaluation that follows with no other change to the particles.
+  double drift(double dt, bool write_records);
   /// Insert into @p into what the scene's streams owe by @p time; returns the count.
   std::size_t insert_from_streams(Particles& into, double time);
   /// Second half kick and the heat step; returns whether every value stayed finite.
