@@ -9,6 +9,10 @@
 #     LATTICE=20k|1m|both   which lattices (default both)
 #     CORES="1 2"           core counts: bondem threads, peer MPI ranks (default "1 2")
 #     REPS=5                repetitions per code and core count (default 5)
+#     PIN_CPU=0             run every code's one-core runs on this CPU (taskset; default: wherever
+#                           the kernel puts them). On a virtual machine whose CPUs run at different
+#                           speeds (measured here: one 25 % slower than the other for an hour),
+#                           unpinned one-core times split into two groups by the CPU they landed on.
 #
 # Per code and core count it reports the whole-process wall time (/usr/bin/time around the
 # command: start-up, set-up, the steps and bondem's final output files), particle-steps/s from
@@ -34,7 +38,8 @@ esac
 out="$repo/output/compare_peers"
 codes=(bondem liggghts lammps)
 
-for tool in lmp liggghts mpirun /usr/bin/time; do
+[[ -z ${PIN_CPU:-} || $PIN_CPU =~ ^[0-9]+$ ]] || { echo "compare_peers: PIN_CPU must be a CPU number, not '$PIN_CPU'" >&2; exit 2; }
+for tool in lmp liggghts mpirun /usr/bin/time taskset; do
   command -v "$tool" >/dev/null || { echo "compare_peers: '$tool' not found (see the header)" >&2; exit 2; }
 done
 [[ -x "$build/bondem" ]] || { echo "compare_peers: no $build/bondem; run scripts/build.sh" >&2; exit 2; }
@@ -70,6 +75,7 @@ run_code() {
   if [[ $code != bondem && $cores -gt 1 ]]; then
     cmd=(mpirun --allow-run-as-root -np "$cores" /usr/bin/time -f %M -a -o "$ranks" "${cmd[@]}")
   fi
+  if [[ -n ${PIN_CPU:-} && $cores -eq 1 ]]; then cmd=(taskset -c "$PIN_CPU" "${cmd[@]}"); fi
   # The peers get one OpenMP thread per rank: their cores are MPI ranks.
   OMP_NUM_THREADS=$([[ $code == bondem ]] && echo "$cores" || echo 1) \
     /usr/bin/time -f '%e %M' -o "$times" "${cmd[@]}" >"$log" 2>&1 ||
@@ -141,7 +147,7 @@ for lattice in "${lattices[@]}"; do
     status=1
     continue
   fi
-  echo "== $lattice speed: $reps repetitions, codes alternating, cores ${cores_list[*]}"
+  echo "== $lattice speed: $reps repetitions, codes alternating, cores ${cores_list[*]}${PIN_CPU:+ (one-core runs on CPU $PIN_CPU)}"
   for cores in "${cores_list[@]}"; do
     first=$([[ $cores -eq 1 ]] && echo 2 || echo 1)  # the physics runs were 1-core repetition 1
     for ((r = first; r <= reps; ++r)); do
