@@ -130,7 +130,8 @@ class Stepper {
 
   /// One velocity-Verlet step of scene.time_step. Throws BlowUpError, after completing the step,
   /// when a value is not finite or an overlap exceeds scene.max_overlap_fraction of a radius.
-  /// Equal to complete_step(move() > (skin / 2)^2).
+  /// Equal to complete_step(move() > (skin / 2)^2), bit for bit; its drift also writes the SIMD
+  /// pass's kinematics records, which move() leaves to the pass (ghosts change in between).
   void step();
 
   /// The first half of step(): the opening half-kicks and the drift. Returns the largest squared
