@@ -4,6 +4,10 @@
 #include <benchmark/benchmark.h>
 #include <omp.h>
 
+#include <algorithm>
+#include <chrono>
+#include <vector>
+
 #include "lattice_case.hpp"
 #include "solver/engine/stepper.hpp"
 
@@ -53,6 +57,50 @@ void BM_Step_FloorMesh(benchmark::State& state) {
   floor_steps(state, bench::Floor::kMesh);
 }
 
+/// Two variants of the step that give the same bytes, paired step by step in one process:
+/// the host's drift (runs of one binary scatter by 15-20 % on the shared machine) moves both
+/// alike. Steps alternate between the variants (which goes first alternates too) and the
+/// counters give each one's median step time and the median of the paired ratios
+/// variant / reference (below 1: the variant is faster). @p use(bool variant) switches.
+template <class Use>
+void paired_steps(benchmark::State& state, Use&& use) {
+  Scene scene = lattice_scene(static_cast<int>(state.range(0)), 13, true);
+  Stepper stepper(scene);
+  stepper.defer_closing_kicks(true);           // as run_steps
+  for (int s = 0; s < 5; ++s) stepper.step();  // first touches, the splits' first moves
+  std::vector<double> variant, reference, ratio;
+  const auto timed_step = [&](bool is_variant) {
+    use(is_variant);
+    const auto start = std::chrono::steady_clock::now();
+    stepper.step();
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+        .count();
+  };
+  for (auto _ : state) {
+    const bool variant_first = variant.size() % 2 == 0;
+    const double first = timed_step(variant_first);
+    const double second = timed_step(!variant_first);
+    variant.push_back(variant_first ? first : second);
+    reference.push_back(variant_first ? second : first);
+    ratio.push_back(variant.back() / reference.back());
+  }
+  use(false);
+  const auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  state.counters["variant_ms"] = median(variant);
+  state.counters["reference_ms"] = median(reference);
+  state.counters["ratio"] = median(ratio);
+}
+
+/// Threads that take chunks from the back of slower threads' shares (ThreadSplit::run) against
+/// each thread alone on its share; meaningful with OMP_NUM_THREADS >= 2.
+void BM_Step_StealingPaired(benchmark::State& state) {
+  paired_steps(state, [](bool variant) { ThreadSplit::set_stealing(variant); });
+  ThreadSplit::set_stealing(true);
+}
+
 void BM_NeighborBuild(benchmark::State& state) {
   Scene scene = lattice_scene(static_cast<int>(state.range(0)), 13, false);
   NeighborList list;
@@ -72,5 +120,6 @@ BENCHMARK(BM_Step_Frictionless)->Arg(10)->Arg(20)->Arg(40)->Unit(benchmark::kMil
 BENCHMARK(BM_Step_Friction)->Arg(10)->Arg(20)->Arg(40)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Step_FloorPlane)->Arg(20)->Arg(40)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Step_FloorMesh)->Arg(20)->Arg(40)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Step_StealingPaired)->Arg(10)->Arg(40)->Arg(277)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_NeighborBuild)->Arg(10)->Arg(40)->Arg(277)->Unit(benchmark::kMillisecond);
 BENCHMARK_MAIN();

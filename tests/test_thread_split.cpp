@@ -38,6 +38,69 @@ TEST(ThreadSplit, StartsEqualAndCoversEveryChunkOnce) {
   EXPECT_EQ(split.begin(3), 10u);
 }
 
+/// Runs a split of 64 chunks over two shares whose first share's chunks take 2 ms each and the
+/// second's none: the record of which share index and thread ran each chunk, and the team size.
+struct SlowShareRun {
+  std::vector<int> visits = std::vector<int>(64, 0);
+  std::vector<int> index = std::vector<int>(64, -1);
+  std::vector<int> thread = std::vector<int>(64, -1);
+  int team = 0;
+  std::size_t total = 0;
+};
+SlowShareRun run_slow_share() {
+  ThreadSplit split;
+  split.prepare(64, 2);
+  SlowShareRun r;
+  r.total = split.run(
+      std::size_t{0},
+      [&](int share, std::size_t first, std::size_t end) {
+        for (std::size_t c = first; c < end; ++c) {
+          ++r.visits[c];  // each chunk by one thread: no race unless a chunk is run twice
+          r.index[c] = share;
+          r.thread[c] = omp_get_thread_num();
+          if (c < 32) {
+            const double until = omp_get_wtime() + 2e-3;
+            while (omp_get_wtime() < until) {
+            }
+          }
+        }
+#pragma omp atomic write
+        r.team = omp_get_num_threads();
+        return end - first;
+      },
+      [](std::size_t& sum, std::size_t part) { sum += part; });
+  return r;
+}
+
+TEST(ThreadSplit, ThreadsTakeChunksOfASlowShareEachOnceUnderTheirOwnIndex) {
+  const SlowShareRun r = run_slow_share();
+  EXPECT_EQ(r.total, 64u);
+  for (const int v : r.visits) EXPECT_EQ(v, 1);
+  // The index a thread passes is its own: one thread per index (the wall loads' sums rely on it).
+  for (std::size_t c = 0; c < 64; ++c) {
+    for (std::size_t d = 0; d < 64; ++d) {
+      if (r.index[c] == r.index[d]) {
+        EXPECT_EQ(r.thread[c], r.thread[d]);
+      }
+    }
+  }
+  if (r.team < 2) GTEST_SKIP() << "OpenMP gave a team of one thread";
+  // Share 1's thread finishes at once and takes from the back of share 0 (unless it starts more
+  // than the 64 ms that share 0 takes alone after the other thread).
+  EXPECT_EQ(r.index[31], 1);
+}
+
+TEST(ThreadSplit, WithoutStealingEachShareRunsOnItsOwnThread) {
+  ThreadSplit::set_stealing(false);
+  const SlowShareRun r = run_slow_share();
+  ThreadSplit::set_stealing(true);
+  EXPECT_EQ(r.total, 64u);
+  for (std::size_t c = 0; c < 64; ++c) {
+    EXPECT_EQ(r.visits[c], 1);
+    EXPECT_EQ(r.index[c], c < 32 ? 0 : 1);
+  }
+}
+
 TEST(ThreadSplit, MovesTowardEqualTimesByAtMostItsStep) {
   // 1 280 chunks: the boundary moves by at most 1 280 / 256 = 5 chunks per call. Share 0 takes
   // three times as long per chunk as share 1: the times are equal with share 0 at 320 chunks.
@@ -72,6 +135,18 @@ TEST(ThreadSplit, KeepsTheSplitWithoutTimesAndEveryShareNonEmpty) {
   EXPECT_EQ(split.begin(1), 1u);
   split.prepare(9, 2);
   EXPECT_EQ(split.begin(1), 4u);
+}
+
+TEST(ThreadSplit, RebalancesByTheChunksEachThreadRan) {
+  // Equal times, but thread 1 ran three times the chunks of thread 0 (it took some of share 0's):
+  // thread 0 is three times slower per chunk, and the split moves toward share 1.
+  ThreadSplit split;
+  split.prepare(1280, 2);
+  split.rebalance(std::vector<double>{1.0, 1.0}, std::vector<std::size_t>{320, 960});
+  EXPECT_EQ(split.begin(1), 635u);  // 640 moved by its largest step, 1280 / 256 = 5 chunks
+  // A thread that ran nothing measured nothing: no move.
+  split.rebalance(std::vector<double>{1.0, 1.0}, std::vector<std::size_t>{0, 1280});
+  EXPECT_EQ(split.begin(1), 635u);
 }
 
 TEST(SortInParallel, GivesStdSortsOrderAtOneToFourThreads) {

@@ -5,15 +5,24 @@
 /// are not equal work: rows differ in pairs, and the threads near a split read what the other
 /// thread wrote (cache lines moving between cores), which on the 20 800 peer lattice made one
 /// thread's pass 1 ~15 % slower than the other's, while its sweeps ran faster. Each pass keeps
-/// its own split and moves it after every call toward equal measured times. The split decides
-/// only which thread computes a particle or pair, never the order of any sum: results do not
-/// depend on it (the same reason they do not depend on the thread count).
+/// its own split and moves it after every call toward equal measured times. What the times of one
+/// step do not foretell (a CPU slowed by the host, a thread woken late) the threads even out
+/// within the step: one that is done takes chunks from the back of a share still running
+/// (measured on the peer lattices with two threads, steps paired in one process: 1-3 % faster at
+/// 20 800 particles, 6 % at 10^6). The split decides only which thread computes a particle or
+/// pair, never the order of any sum: results do not depend on it (the same reason they do not
+/// depend on the thread count).
 #include <omp.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <optional>
 #include <span>
+#include <utility>
 #include <vector>
 
 namespace bondem {
@@ -30,6 +39,8 @@ class ThreadSplit {
     for (std::size_t t = 0; t <= shares; ++t) begin_[t] = chunks * t / shares;
     seconds_.assign(shares, 0.0);
     cost_.assign(shares, 0.0);
+    left_ = std::make_unique<Left[]>(shares);
+    done_.assign(shares, 0);
   }
 
   /// Shares, one per thread of the pass's team.
@@ -37,27 +48,78 @@ class ThreadSplit {
   /// First chunk of thread @p t's share; begin(t + 1) ends it.
   std::size_t begin(int t) const { return begin_[static_cast<std::size_t>(t)]; }
 
-  /// Runs @p work(share, first_chunk, end_chunk) -> Result for every share in a parallel region of
-  /// threads() threads, timing each share, and folds the shares' results into @p result with
-  /// @p combine(Result&, const Result&) one at a time in no fixed order: it must be exact and
-  /// commutative (integer sums, max, and). Shares beyond the team's size (a smaller team than
-  /// asked for) are taken by its threads in turn. Then moves the split (rebalance).
+  /// Runs @p work(share, first_chunk, end_chunk) -> Result over every chunk in a parallel region
+  /// of threads() threads and folds the results into @p result with @p combine(Result&, const
+  /// Result&), one at a time in no fixed order: it must be exact and commutative (integer sums,
+  /// max, and). Each thread works through its own share from the front in shrinking pieces, then
+  /// takes pieces from the back of the share with the most chunks left, so that a thread slowed
+  /// by its CPU or by a late start does not keep the others waiting at the join. @p work may thus
+  /// be called several times per share, on consecutive runs of its chunks, and on a share's
+  /// chunks with another share's index: the index a thread passes is one no other thread passes
+  /// during the call (its own). Shares beyond the team's size (a smaller team than asked for)
+  /// are taken by its threads in turn. Then moves the split (rebalance).
   template <class Result, class Work, class Combine>
   Result run(Result result, Work&& work, Combine&& combine) {
     const int shares = threads();
-#pragma omp parallel num_threads(shares) if (shares > 1)
+    if (shares == 1) {
+      const double start = omp_get_wtime();
+      combine(result, work(0, begin(0), begin(1)));
+      seconds_[0] = omp_get_wtime() - start;
+      return result;
+    }
+    for (std::size_t t = 0; t < static_cast<std::size_t>(shares); ++t) {
+      left_[t].range.store(pack(begin_[t], begin_[t + 1]), std::memory_order_relaxed);
+      seconds_[t] = 0.0;  // a smaller team measures its threads' only
+      done_[t] = 0;
+    }
+#pragma omp parallel num_threads(shares)
     {
       const int team = omp_get_num_threads();
-      for (int t = omp_get_thread_num(); t < shares; t += team) {
-        const double start = omp_get_wtime();
-        const Result part = work(t, begin(t), begin(t + 1));
-        seconds_[static_cast<std::size_t>(t)] = omp_get_wtime() - start;
-#pragma omp critical(bondem_thread_split)
-        combine(result, part);
+      const int me = omp_get_thread_num();
+      const double start = omp_get_wtime();
+      std::size_t done = 0;
+      std::optional<Result> mine;
+      const auto take = [&](int index, std::size_t first, std::size_t end) {
+        Result part = work(index, first, end);
+        if (mine) {
+          combine(*mine, part);
+        } else {
+          mine = std::move(part);
+        }
+        done += end - first;
+      };
+      for (int t = me; t < shares; t += team) {
+        while (const auto piece = claim(static_cast<std::size_t>(t), true)) {
+          take(t, piece->first, piece->second);
+        }
       }
+      if (stealing_) {
+        for (;;) {
+          std::size_t victim = 0, most = 0;
+          for (std::size_t t = 0; t < static_cast<std::size_t>(shares); ++t) {
+            const std::uint64_t range = left_[t].range.load(std::memory_order_relaxed);
+            if (back(range) - front(range) > most) {
+              most = back(range) - front(range);
+              victim = t;
+            }
+          }
+          if (most == 0) break;
+          if (const auto piece = claim(victim, false)) take(me, piece->first, piece->second);
+        }
+      }
+      seconds_[static_cast<std::size_t>(me)] = omp_get_wtime() - start;
+      done_[static_cast<std::size_t>(me)] = done;
+#pragma omp critical(bondem_thread_split)
+      if (mine) combine(result, *mine);
     }
-    rebalance(seconds_);
+    rebalance(seconds_, done_);
     return result;
+  }
+
+  /// Whether run() lets a thread take chunks of other shares (the default); off, each thread
+  /// runs its share alone and the join waits for the slowest. Process-wide, for benchmarks.
+  static void set_stealing(bool stealing) {
+    stealing_ = stealing;
   }
 
   /// Moves each boundary halfway toward the split at which every share would take the same time
@@ -66,14 +128,22 @@ class ThreadSplit {
   /// step's times scatter by 10-15 %, and a split following each step wandered by 15 %.
   /// @p seconds: each share's time at the current split.
   void rebalance(std::span<const double> seconds) {
+    rebalance(seconds, {});
+  }
+
+  /// rebalance() where share t's thread ran @p done[t] chunks in @p seconds[t] (with chunks
+  /// taken from other shares); empty: its own share's.
+  void rebalance(std::span<const double> seconds, std::span<const std::size_t> done) {
     const std::size_t shares = cost_.size();
     if (seconds.size() != shares || shares < 2 || chunks_ < 2 * shares) return;
     for (std::size_t t = 0; t < shares; ++t) {
       if (!(seconds[t] > 0.0)) return;  // nothing measured: keep the split
+      if (!done.empty() && done[t] == 0) return;
     }
     double total_speed = 0.0;
     for (std::size_t t = 0; t < shares; ++t) {
-      const double cost = seconds[t] / static_cast<double>(begin_[t + 1] - begin_[t]);
+      const std::size_t chunks = done.empty() ? begin_[t + 1] - begin_[t] : done[t];
+      const double cost = seconds[t] / static_cast<double>(chunks);
       cost_[t] = cost_[t] > 0.0 ? cost_[t] + kNewWeight * (cost - cost_[t]) : cost;
       total_speed += 1.0 / cost_[t];
     }
@@ -91,6 +161,41 @@ class ThreadSplit {
   }
 
  private:
+  /// The chunks of a share not yet claimed, [front, back), in one word: claims from both ends
+  /// by compare-and-swap. A cache line of its own.
+  struct alignas(64) Left {
+    std::atomic<std::uint64_t> range{0};
+  };
+  static std::uint64_t pack(std::size_t front, std::size_t back) {
+    return static_cast<std::uint64_t>(front) | (static_cast<std::uint64_t>(back) << 32);
+  }
+  static std::size_t front(std::uint64_t range) {
+    return range & 0xffffffffu;
+  }
+  static std::size_t back(std::uint64_t range) {
+    return range >> 32;
+  }
+
+  /// Claims a piece of share @p t's chunks left, from the front (its own thread) or the back:
+  /// a quarter of them, at least kMinPiece (the pieces shrink toward the end, where the
+  /// threads meet, and a pass is restarted a few times only). None when nothing is left.
+  std::optional<std::pair<std::size_t, std::size_t>> claim(std::size_t t, bool from_front) {
+    std::uint64_t range = left_[t].range.load(std::memory_order_relaxed);
+    for (;;) {
+      const std::size_t f = front(range), b = back(range);
+      if (f >= b) return std::nullopt;
+      const std::size_t piece = std::min(b - f, std::max(kMinPiece, (b - f) / 4));
+      const std::uint64_t rest = from_front ? pack(f + piece, b) : pack(f, b - piece);
+      if (left_[t].range.compare_exchange_weak(range, rest, std::memory_order_relaxed)) {
+        return from_front ? std::pair{f, f + piece} : std::pair{b - piece, b};
+      }
+    }
+  }
+
+  static constexpr std::size_t kMinPiece = 2;
+  static inline bool stealing_ = true;
+  std::unique_ptr<Left[]> left_;   ///< per share
+  std::vector<std::size_t> done_;  ///< per thread, chunks run in the last run()
   static constexpr double kMaxMove = 1.0 / 256.0;
   static constexpr double kNewWeight = 0.125;
   std::size_t chunks_ = 0;
