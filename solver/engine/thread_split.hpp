@@ -194,13 +194,14 @@ class ThreadSplit {
 
   static constexpr std::size_t kMinPiece = 2;
   static inline bool stealing_ = true;
-  std::unique_ptr<Left[]> left_;   ///< per share
-  std::vector<std::size_t> done_;  ///< per thread, chunks run in the last run()
+  std::unique_ptr<Left[]> left_;  ///< per share
+  /// Per thread of the last run() (thread t runs share t first): chunks it ran, its busy time.
+  std::vector<std::size_t> done_;
+  std::vector<double> seconds_;
   static constexpr double kMaxMove = 1.0 / 256.0;
   static constexpr double kNewWeight = 0.125;
   std::size_t chunks_ = 0;
   std::vector<std::size_t> begin_;  ///< size threads + 1
-  std::vector<double> seconds_;     ///< each share's time in the last run
   std::vector<double> cost_;        ///< per share, average seconds per chunk (0: none yet)
 };
 
