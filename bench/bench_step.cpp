@@ -6,9 +6,11 @@
 
 #include <algorithm>
 #include <chrono>
+#include <limits>
 #include <vector>
 
 #include "lattice_case.hpp"
+#include "solver/engine/pair_kernel_simd.hpp"
 #include "solver/engine/stepper.hpp"
 
 namespace {
@@ -101,6 +103,16 @@ void BM_Step_StealingPaired(benchmark::State& state) {
   ThreadSplit::set_stealing(true);
 }
 
+/// Kinematics records at every size (variant) against the default limit (reference): out of
+/// cache, what the records would give if they fitted the memory target.
+void BM_Step_RecordsPaired(benchmark::State& state) {
+  const std::size_t limit = set_kinematics_records_below(0);  // each step sets its own
+  paired_steps(state, [limit](bool variant) {
+    set_kinematics_records_below(variant ? std::numeric_limits<std::size_t>::max() : limit);
+  });
+  set_kinematics_records_below(limit);
+}
+
 void BM_NeighborBuild(benchmark::State& state) {
   Scene scene = lattice_scene(static_cast<int>(state.range(0)), 13, false);
   NeighborList list;
@@ -121,5 +133,6 @@ BENCHMARK(BM_Step_Friction)->Arg(10)->Arg(20)->Arg(40)->Unit(benchmark::kMillise
 BENCHMARK(BM_Step_FloorPlane)->Arg(20)->Arg(40)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Step_FloorMesh)->Arg(20)->Arg(40)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Step_StealingPaired)->Arg(10)->Arg(40)->Arg(277)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Step_RecordsPaired)->Arg(10)->Arg(100)->Arg(277)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_NeighborBuild)->Arg(10)->Arg(40)->Arg(277)->Unit(benchmark::kMillisecond);
 BENCHMARK_MAIN();

@@ -7,7 +7,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "run_helpers.hpp"
@@ -229,6 +231,34 @@ TEST(PairKernelSimd, ALargePackingPrefetchesAndKeepsTheBits) {
     const auto got = arrays(lanes);
     for (std::size_t a = 0; a < expected.size(); ++a)
       EXPECT_TRUE(same_bytes(*got[a], *expected[a])) << "array " << a;
+  }
+  select_simd_target(SimdTarget::kAuto);
+}
+
+// The block gather reads each particle's kinematics from the records (in cache, below
+// set_kinematics_records_below's limit) or from the particle arrays (above it): a decomposed run
+// whose ranks hold fewer particles than one process would takes the other way, so both must give
+// the same bits, on the small packing and on the large one, which also prefetches the records.
+TEST(PairKernelSimd, RecordsAndParticleArraysGiveTheSameBits) {
+  for (const int per_axis : {9, 33}) {
+    Scene scene = jittered_packing(per_axis);
+    NeighborList list;
+    list.build(scene.particles, scene.domain, scene.skin, false);
+    for (const SimdTarget target : supported_simd_targets()) {
+      select_simd_target(target);
+      const std::size_t limit = set_kinematics_records_below(0);  // arrays at every size
+      const PassResult from_arrays = run_pass(scene, list, true);
+      set_kinematics_records_below(std::numeric_limits<std::size_t>::max());  // records
+      const PassResult from_records = run_pass(scene, list, true);
+      set_kinematics_records_below(limit);
+      SCOPED_TRACE(std::string(simd_target_name(target)) + ", " + std::to_string(per_axis) + "^3");
+      EXPECT_EQ(from_records.summary.contacts, from_arrays.summary.contacts);
+      EXPECT_EQ(from_records.forces.bonded, from_arrays.forces.bonded);
+      const auto expected = arrays(from_arrays);
+      const auto got = arrays(from_records);
+      for (std::size_t a = 0; a < expected.size(); ++a)
+        EXPECT_TRUE(same_bytes(*got[a], *expected[a])) << "array " << a;
+    }
   }
   select_simd_target(SimdTarget::kAuto);
 }

@@ -4,6 +4,7 @@
 #include "solver/engine/pair_kernel_simd.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -533,9 +534,14 @@ ContactSummary LanePass(const detail::LanePassArgs& a, std::size_t first_row,
       const Particles& p = *a.particles;
       for (std::uint32_t s = 0; s < next_count; ++s) {
         const std::uint32_t j = js[s];
-        for (const double* base : {p.x.data(), p.y.data(), p.z.data(), p.vx.data(), p.vy.data(),
-                                   p.vz.data(), p.radius.data(), p.mass.data()}) {
-          __builtin_prefetch(base + j);
+        if (a.kinematics != nullptr) {
+          __builtin_prefetch(a.kinematics + 4 * std::size_t{j});
+          __builtin_prefetch(a.kinematics + 4 * (p.size() + j));
+        } else {
+          for (const double* base : {p.x.data(), p.y.data(), p.z.data(), p.vx.data(), p.vy.data(),
+                                     p.vz.data(), p.radius.data(), p.mass.data()}) {
+            __builtin_prefetch(base + j);
+          }
         }
         if constexpr (kFriction) {
           __builtin_prefetch(p.wx.data() + j);
@@ -746,8 +752,19 @@ std::vector<LanePairConstants> lane_pair_constants(const Scene& scene) {
 /// lattice 5 % slower, pass 1 at 8 000 particles 10-14 %).
 constexpr std::size_t kPrefetchParticles = 32768;
 
+namespace {
+/// set_kinematics_records_below's limit. Out of cache the records make a step about 10 % faster
+/// (bench_step RecordsPaired, one thread: 0.90 at 997 477 spheres, 0.91 at 130 000) but cost
+/// 64 B a particle, which the memory target (500 B a particle at 10^6) does not leave.
+std::atomic<std::size_t> records_below{kPrefetchParticles};
+}  // namespace
+
+std::size_t set_kinematics_records_below(std::size_t particles) {
+  return records_below.exchange(particles, std::memory_order_relaxed);
+}
+
 double* records_for_sweep(LanePassScratch& scratch, std::size_t particles) {
-  if (particles >= kPrefetchParticles) return nullptr;
+  if (particles >= records_below.load(std::memory_order_relaxed)) return nullptr;
   scratch.kinematics.resize(8 * particles);
   return scratch.kinematics.data();
 }
@@ -781,10 +798,10 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
   LanePassScratch own_scratch;
   if (scratch == nullptr) scratch = &own_scratch;
   const double* kinematics = nullptr;
-  if (n < kPrefetchParticles) {
-    // In cache, where nothing is prefetched: each pair then reads two quadruples of each of its
-    // particles instead of eight arrays, written by the opening sweep or else copied here. A
-    // region of its own: a thread's pairs read particles of the other threads' shares.
+  if (n < records_below.load(std::memory_order_relaxed)) {
+    // In cache by default (below the count that prefetches): each pair then reads two quadruples
+    // of each of its particles instead of eight arrays, written by the opening sweep or else copied
+    // here. A region of its own: a thread's pairs read particles of the other threads' shares.
     if (!scratch->current || scratch->kinematics.size() != 8 * n) {
       scratch->kinematics.resize(8 * n);
       double* to = scratch->kinematics.data();

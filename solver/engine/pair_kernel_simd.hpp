@@ -68,11 +68,12 @@ struct LanePairConstants {
 /// The lane constants of every material pair of @p scene, in pair_table order.
 std::vector<LanePairConstants> lane_pair_constants(const Scene& scene);
 
-/// What the SIMD pass keeps from call to call: below the particle count at which the pass
-/// prefetches (out of cache), each particle's position, radius, velocity and mass as two
-/// quadruples, which the block gather copies with two loads where it read eight arrays. The
-/// copy costs about 3 % of a run of the 20 800 peer lattice and the gather's share fell by 5 %;
-/// written by the opening sweep instead (records_for_sweep), it costs a few stores there.
+/// What the SIMD pass keeps from call to call: below set_kinematics_records_below's limit (by
+/// default the particle count at which the pass prefetches, out of cache), each particle's
+/// position, radius, velocity and mass as two quadruples, which the block gather copies with two
+/// loads where it read eight arrays. The copy costs about 3 % of a run of the 20 800 peer lattice
+/// and the gather's share fell by 5 %; written by the opening sweep instead (records_for_sweep), it
+/// costs a few stores there.
 struct LanePassScratch {
   StaggeredVector<double> kinematics;  ///< 8 values per particle (pair_kernel_simd.cpp)
   /// Whether @c kinematics holds the particles' kinematics as they are now: set by whoever wrote
@@ -80,6 +81,12 @@ struct LanePassScratch {
   /// anything that moves, reorders, adds or removes particles in between.
   bool current = false;
 };
+
+/// Runs from @p particles particles on read the particle arrays instead of kinematics records
+/// (LanePassScratch), which cost 64 B a particle (default 32 768, where the pass starts to
+/// prefetch); returns the previous limit. Process-wide, for tests and benchmarks: set it between
+/// steps. Both ways give the same bytes.
+std::size_t set_kinematics_records_below(std::size_t particles);
 
 /// Where the opening sweep of @p particles particles can write the kinematics records of the
 /// next pass (SweepArrays::records), sized for them, or null when the pass reads none at this
