@@ -174,7 +174,15 @@ done
       done
     done
   done
+  # Ratios within each round (each code once, back to back): the host's drift, which moves the
+  # codes' medians apart when it falls between their runs, moves a round's runs together.
+  echo
+  echo "| lattice | ratio | per round | median |"
+  echo "|---|---|---|---:|"
+  for lattice in "${lattices[@]}"; do
+    awk -F, -v l="$lattice" -f "$repo/bench/compare_rounds.awk" "$out/timings.csv"
+  done
 } >"$out/summary.md"
 cat "$out/summary.md"
-echo "(medians; all runs: $out/timings.csv; this table: $out/summary.md)"
+echo "(medians; all runs: $out/timings.csv; these tables: $out/summary.md)"
 exit $status
