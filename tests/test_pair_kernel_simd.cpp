@@ -133,6 +133,14 @@ bool same_bytes(const StaggeredVector<double>& a, const StaggeredVector<double>&
   return std::equal(a.begin(), a.end(), b.begin(), b.end(), testing::same_bits);
 }
 
+/// Expects every per-pair array of @p got to hold the bytes of @p expected's.
+void expect_same_bits(const PassResult& got, const PassResult& expected) {
+  const auto want = arrays(expected);
+  const auto have = arrays(got);
+  for (std::size_t a = 0; a < want.size(); ++a)
+    EXPECT_TRUE(same_bytes(*have[a], *want[a])) << "array " << a;
+}
+
 TEST(PairKernelSimd, PackingTakesTheSimdPass) {
   const Scene scene = jittered_packing();
   EXPECT_TRUE(simd_pass_applies(scene));
@@ -201,10 +209,7 @@ TEST(PairKernelSimd, EveryTargetGivesTheSameBits) {
     select_simd_target(target);
     const PassResult lanes = run_pass(scene, list, true);
     SCOPED_TRACE(simd_target_name(target));
-    const auto expected = arrays(reference);
-    const auto got = arrays(lanes);
-    for (std::size_t a = 0; a < expected.size(); ++a)
-      EXPECT_TRUE(same_bytes(*got[a], *expected[a])) << "array " << a;
+    expect_same_bits(lanes, reference);
   }
   select_simd_target(SimdTarget::kAuto);
 }
@@ -227,10 +232,7 @@ TEST(PairKernelSimd, ALargePackingPrefetchesAndKeepsTheBits) {
     select_simd_target(target);
     const PassResult lanes = run_pass(scene, list, true);
     SCOPED_TRACE(simd_target_name(target));
-    const auto expected = arrays(reference);
-    const auto got = arrays(lanes);
-    for (std::size_t a = 0; a < expected.size(); ++a)
-      EXPECT_TRUE(same_bytes(*got[a], *expected[a])) << "array " << a;
+    expect_same_bits(lanes, reference);
   }
   select_simd_target(SimdTarget::kAuto);
 }
@@ -254,10 +256,7 @@ TEST(PairKernelSimd, RecordsAndParticleArraysGiveTheSameBits) {
       SCOPED_TRACE(std::string(simd_target_name(target)) + ", " + std::to_string(per_axis) + "^3");
       EXPECT_EQ(from_records.summary.contacts, from_arrays.summary.contacts);
       EXPECT_EQ(from_records.forces.bonded, from_arrays.forces.bonded);
-      const auto expected = arrays(from_arrays);
-      const auto got = arrays(from_records);
-      for (std::size_t a = 0; a < expected.size(); ++a)
-        EXPECT_TRUE(same_bytes(*got[a], *expected[a])) << "array " << a;
+      expect_same_bits(from_records, from_arrays);
     }
   }
   select_simd_target(SimdTarget::kAuto);

@@ -757,6 +757,12 @@ namespace {
 /// (bench_step RecordsPaired, one thread: 0.90 at 997 477 spheres, 0.91 at 130 000) but cost
 /// 64 B a particle, which the memory target (500 B a particle at 10^6) does not leave.
 std::atomic<std::size_t> records_below{kPrefetchParticles};
+
+/// Whether a pass over @p particles particles reads kinematics records (the sweep then writes
+/// them).
+bool reads_records(std::size_t particles) {
+  return particles < records_below.load(std::memory_order_relaxed);
+}
 }  // namespace
 
 std::size_t set_kinematics_records_below(std::size_t particles) {
@@ -764,7 +770,7 @@ std::size_t set_kinematics_records_below(std::size_t particles) {
 }
 
 double* records_for_sweep(LanePassScratch& scratch, std::size_t particles) {
-  if (particles >= records_below.load(std::memory_order_relaxed)) return nullptr;
+  if (!reads_records(particles)) return nullptr;
   scratch.kinematics.resize(8 * particles);
   return scratch.kinematics.data();
 }
@@ -798,7 +804,7 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
   LanePassScratch own_scratch;
   if (scratch == nullptr) scratch = &own_scratch;
   const double* kinematics = nullptr;
-  if (n < records_below.load(std::memory_order_relaxed)) {
+  if (reads_records(n)) {
     // In cache by default (below the count that prefetches): each pair then reads two quadruples
     // of each of its particles instead of eight arrays, written by the opening sweep or else copied
     // here. A region of its own: a thread's pairs read particles of the other threads' shares.
