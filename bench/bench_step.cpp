@@ -112,6 +112,16 @@ void BM_Step_RecordsPaired(benchmark::State& state) {
   });  // ends on the reference: the default limit again
 }
 
+/// The force slots written with streaming stores at every size (variant) against the default
+/// limit (reference): where streaming pays, and where it does not.
+void BM_Step_StreamPaired(benchmark::State& state) {
+  const std::size_t limit = set_stream_pair_slots_from(0);  // each step sets its own
+  paired_steps(state, [limit](bool variant) {
+    set_stream_pair_slots_from(variant ? 0 : std::numeric_limits<std::size_t>::max());
+  });
+  set_stream_pair_slots_from(limit);
+}
+
 void BM_NeighborBuild(benchmark::State& state) {
   Scene scene = lattice_scene(static_cast<int>(state.range(0)), 13, false);
   NeighborList list;
@@ -133,5 +143,13 @@ BENCHMARK(BM_Step_FloorPlane)->Arg(20)->Arg(40)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Step_FloorMesh)->Arg(20)->Arg(40)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Step_StealingPaired)->Arg(10)->Arg(40)->Arg(277)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Step_RecordsPaired)->Arg(10)->Arg(100)->Arg(277)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Step_StreamPaired)
+    ->Arg(10)
+    ->Arg(40)
+    ->Arg(60)
+    ->Arg(70)
+    ->Arg(100)
+    ->Arg(277)
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_NeighborBuild)->Arg(10)->Arg(40)->Arg(277)->Unit(benchmark::kMillisecond);
 BENCHMARK_MAIN();

@@ -88,6 +88,12 @@ struct LanePassScratch {
 /// steps. Both ways give the same bytes.
 std::size_t set_kinematics_records_below(std::size_t particles);
 
+/// Runs from @p particles particles on write the pass's force slots with non-temporal stores
+/// (default 57 344, measured where the step's data outgrows this machine's L3); returns the
+/// previous limit. Process-wide, for tests and benchmarks: set it between steps. Both ways give
+/// the same bytes.
+std::size_t set_stream_pair_slots_from(std::size_t particles);
+
 /// Where the opening sweep of @p particles particles can write the kinematics records of the
 /// next pass (SweepArrays::records), sized for them, or null when the pass reads none at this
 /// count (it then reads the particle arrays). The caller sets @c current once they are written.
