@@ -378,14 +378,17 @@ HWY_INLINE void evaluate_block(const detail::LanePassArgs& a, PairBlock& b, std:
     const V positive_overlap = hn::Load(d, b.overlap + s);
     const M contact = positive_overlap > zero;
     if (hn::AllFalse(d, contact)) {
-      // No contact in these lanes: no force, torque or bond, springs released.
-      store_lanes(d, zero, valid, out.fx.data() + k);
-      store_lanes(d, zero, valid, out.fy.data() + k);
-      store_lanes(d, zero, valid, out.fz.data() + k);
+      // No contact in these lanes: no force, torque or bond, springs released. The slots as the
+      // lanes in contact store theirs, so that a line is not half streamed, half cached.
+      for (double* to : {out.fx.data(), out.fy.data(), out.fz.data()}) {
+        store_slot(d, zero, valid, to + k, a.stream_slots);
+      }
       hn::Store(zero, d, b.bonded + s);
       if constexpr (kFriction) {
-        for (double* to : {out.cx.data(), out.cy.data(), out.cz.data(), out.overlap.data(),
-                           history.sx.data(), history.sy.data(), history.sz.data()}) {
+        for (double* to : {out.cx.data(), out.cy.data(), out.cz.data(), out.overlap.data()}) {
+          store_slot(d, zero, valid, to + k, a.stream_slots);
+        }
+        for (double* to : {history.sx.data(), history.sy.data(), history.sz.data()}) {
           store_lanes(d, zero, valid, to + k);
         }
         if (a.rolling) {
@@ -792,8 +795,9 @@ bool reads_records(std::size_t particles) {
 /// Particles from which the lanes stream the force slots past the caches. Where the step's data
 /// outgrows the 32 MiB L3 here, the slots' lines are otherwise read from memory before they are
 /// overwritten and evict the particle data the pass gathers. bench_step StreamPaired, one thread,
-/// steps paired in one process (streamed / cached): 1.002-1.005 at 46 800 spheres, 0.96-0.98 at
-/// 63 700, 0.94 at 83 200, 0.93-0.94 at 130 000, 0.96-0.98 at 997 477 (0.98 on two threads).
+/// steps paired in one process (streamed / cached): 1.000-1.005 at 32 500 and 46 800 spheres,
+/// 0.96-0.98 at 63 700, 0.94 at 83 200, 0.93-1.00 at 130 000, 0.96-1.00 at 997 477 (0.98 on two
+/// threads); the gain shrinks in the hours when the host's memory is fast.
 constexpr std::size_t kStreamSlotsParticles = 56 * 1024;
 
 /// set_stream_pair_slots_from's limit.
