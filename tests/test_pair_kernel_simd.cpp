@@ -280,8 +280,8 @@ TEST(PairKernelSimd, StreamedAndCachedSlotsGiveTheSameBits) {
       const PassResult cached = run_pass(scene, list, true);
       set_stream_pair_slots_from(limit);
       SCOPED_TRACE(std::string(simd_target_name(target)) + ", " + std::to_string(per_axis) + "^3");
-      if (per_axis == 40) {
-        ASSERT_EQ(reinterpret_cast<std::uintptr_t>(streamed.forces.fx.data()) % 64, 0U);
+      if (per_axis == 40) {  // else the streamed path would be taken by chance only
+        EXPECT_EQ(reinterpret_cast<std::uintptr_t>(streamed.forces.fx.data()) % 64, 0U);
       }
       EXPECT_EQ(streamed.summary.contacts, cached.summary.contacts);
       EXPECT_EQ(streamed.forces.bonded, cached.forces.bonded);
