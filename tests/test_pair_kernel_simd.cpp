@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <initializer_list>
 #include <limits>
 #include <random>
 #include <string>
@@ -238,29 +239,42 @@ TEST(PairKernelSimd, ALargePackingPrefetchesAndKeepsTheBits) {
   select_simd_target(SimdTarget::kAuto);
 }
 
-// The block gather reads each particle's kinematics from the records (in cache, below
-// set_kinematics_records_below's limit) or from the particle arrays (above it): a decomposed run
-// whose ranks hold fewer particles than one process would takes the other way, so both must give
-// the same bits, on the small packing and on the large one, which also prefetches the records.
-TEST(PairKernelSimd, RecordsAndParticleArraysGiveTheSameBits) {
-  for (const int per_axis : {9, 33}) {
+/// For a jittered packing of @p per_axis^3 spheres per entry of @p sizes, on every supported
+/// target: the pass with the limit that @p set_limit moves at 0 (one way at every size) and at its
+/// largest (the other way) gives the same contacts, bond flags and bits in every per-pair array;
+/// the limit is restored. @p check_at_zero(per_axis, result) sees each run at limit 0.
+template <class Check>
+void expect_both_ways_give_the_same_bits(std::initializer_list<int> sizes,
+                                         std::size_t (*set_limit)(std::size_t),
+                                         Check check_at_zero) {
+  for (const int per_axis : sizes) {
     Scene scene = jittered_packing(per_axis);
     NeighborList list;
     list.build(scene.particles, scene.domain, scene.skin, false);
     for (const SimdTarget target : supported_simd_targets()) {
       select_simd_target(target);
-      const std::size_t limit = set_kinematics_records_below(0);  // arrays at every size
-      const PassResult from_arrays = run_pass(scene, list, true);
-      set_kinematics_records_below(std::numeric_limits<std::size_t>::max());  // records
-      const PassResult from_records = run_pass(scene, list, true);
-      set_kinematics_records_below(limit);
+      const std::size_t limit = set_limit(0);
+      const PassResult at_zero = run_pass(scene, list, true);
+      set_limit(std::numeric_limits<std::size_t>::max());
+      const PassResult at_largest = run_pass(scene, list, true);
+      set_limit(limit);
       SCOPED_TRACE(std::string(simd_target_name(target)) + ", " + std::to_string(per_axis) + "^3");
-      EXPECT_EQ(from_records.summary.contacts, from_arrays.summary.contacts);
-      EXPECT_EQ(from_records.forces.bonded, from_arrays.forces.bonded);
-      expect_same_bits(from_records, from_arrays);
+      check_at_zero(per_axis, at_zero);
+      EXPECT_EQ(at_largest.summary.contacts, at_zero.summary.contacts);
+      EXPECT_EQ(at_largest.forces.bonded, at_zero.forces.bonded);
+      expect_same_bits(at_largest, at_zero);
     }
   }
   select_simd_target(SimdTarget::kAuto);
+}
+
+// The block gather reads each particle's kinematics from the records (in cache, below
+// set_kinematics_records_below's limit) or from the particle arrays (above it): a decomposed run
+// whose ranks hold fewer particles than one process would takes the other way, so both must give
+// the same bits, on the small packing and on the large one, which also prefetches the records.
+TEST(PairKernelSimd, RecordsAndParticleArraysGiveTheSameBits) {
+  expect_both_ways_give_the_same_bits({9, 33}, set_kinematics_records_below,
+                                      [](int /*per_axis*/, const PassResult& /*from_arrays*/) {});
 }
 
 // Out of cache the lanes write the force slots with streaming stores (whole vectors at their
@@ -268,27 +282,12 @@ TEST(PairKernelSimd, RecordsAndParticleArraysGiveTheSameBits) {
 // thread's rows start on a vector boundary or not. The large packing's slot arrays are over 1 MiB,
 // so they start on a cache line (StaggeredAllocator) and most of their vectors are streamed.
 TEST(PairKernelSimd, StreamedAndCachedSlotsGiveTheSameBits) {
-  for (const int per_axis : {9, 40}) {
-    Scene scene = jittered_packing(per_axis);
-    NeighborList list;
-    list.build(scene.particles, scene.domain, scene.skin, false);
-    for (const SimdTarget target : supported_simd_targets()) {
-      select_simd_target(target);
-      const std::size_t limit = set_stream_pair_slots_from(0);  // streamed at every size
-      const PassResult streamed = run_pass(scene, list, true);
-      set_stream_pair_slots_from(std::numeric_limits<std::size_t>::max());  // cached
-      const PassResult cached = run_pass(scene, list, true);
-      set_stream_pair_slots_from(limit);
-      SCOPED_TRACE(std::string(simd_target_name(target)) + ", " + std::to_string(per_axis) + "^3");
-      if (per_axis == 40) {  // else the streamed path would be taken by chance only
-        EXPECT_EQ(reinterpret_cast<std::uintptr_t>(streamed.forces.fx.data()) % 64, 0U);
-      }
-      EXPECT_EQ(streamed.summary.contacts, cached.summary.contacts);
-      EXPECT_EQ(streamed.forces.bonded, cached.forces.bonded);
-      expect_same_bits(streamed, cached);
-    }
-  }
-  select_simd_target(SimdTarget::kAuto);
+  expect_both_ways_give_the_same_bits(
+      {9, 40}, set_stream_pair_slots_from, [](int per_axis, const PassResult& streamed) {
+        if (per_axis == 40) {  // else the streamed path would be taken by chance only
+          EXPECT_EQ(reinterpret_cast<std::uintptr_t>(streamed.forces.fx.data()) % 64, 0U);
+        }
+      });
 }
 
 // Stepper::step() lets the opening sweep write the pass's kinematics records; move() followed by
