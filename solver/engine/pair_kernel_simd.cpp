@@ -801,9 +801,10 @@ std::vector<LanePairConstants> lane_pair_constants(const Scene& scene) {
 constexpr std::size_t kPrefetchParticles = 32768;
 
 namespace {
-/// set_kinematics_records_below's limit. Out of cache the records make a step about 10 % faster
-/// (bench_step RecordsPaired, one thread: 0.90 at 997 477 spheres, 0.91 at 130 000) but cost
-/// 64 B a particle, which the memory target (500 B a particle at 10^6) does not leave.
+/// set_kinematics_records_below's limit. Out of cache the records cost 64 B a particle, which the
+/// memory target (500 B a particle at 10^6) does not leave, and no longer pay: bench_step
+/// RecordsPaired, one thread, 0.90 at 997 477 spheres before the slots were streamed, 1.09-1.11
+/// since (the records at every size against this default).
 std::atomic<std::size_t> records_below{kPrefetchParticles};
 
 /// Whether a pass over @p particles particles reads kinematics records (the sweep then writes
