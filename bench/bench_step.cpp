@@ -112,6 +112,13 @@ void BM_Step_RecordsPaired(benchmark::State& state) {
   });  // ends on the reference: the default limit again
 }
 
+/// The particle arrays gathered at every size (variant) against the default limit (reference):
+/// in cache, what the kinematics records give.
+void BM_Step_ArraysPaired(benchmark::State& state) {
+  const std::size_t limit = set_kinematics_records_below(0);  // each step sets its own
+  paired_steps(state, [limit](bool variant) { set_kinematics_records_below(variant ? 0 : limit); });
+}
+
 /// The force slots written with streaming stores at every size (variant) against the default
 /// limit (reference): where streaming pays, and where it does not.
 void BM_Step_StreamPaired(benchmark::State& state) {
@@ -143,6 +150,7 @@ BENCHMARK(BM_Step_FloorPlane)->Arg(20)->Arg(40)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Step_FloorMesh)->Arg(20)->Arg(40)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Step_StealingPaired)->Arg(10)->Arg(40)->Arg(277)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Step_RecordsPaired)->Arg(10)->Arg(100)->Arg(277)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Step_ArraysPaired)->Arg(10)->Arg(20)->Arg(40)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Step_StreamPaired)
     ->Arg(10)
     ->Arg(40)
