@@ -183,20 +183,20 @@ HWY_INLINE void pack_kinematics(const detail::LanePassArgs& a, PairBlock& b, std
 /// Gathers j's kinematics and the pair's differences for the block's @p count pairs, i =
 /// b.first[s] (broadcast_row) and j the list's second particle of pair first_k + s, into lane
 /// order: a few short loops, each with few streams, keep the pointers in registers. With
-/// @p next (the next block's j, at least @p count of them), each loop that reads the particle
-/// arrays also prefetches them at next[s]: spread over the gather, the prefetches of the next
-/// block wait for the memory one at a time instead of stalling the pass in a burst of up to
-/// 11 x 64 before it (bench_step, one thread, paired steps against the burst: 0.980-0.995 at
-/// 997 477 spheres, 0.99-1.00 at 130 000; 50-step runs of the 998 400 lattice, median 0.97).
+/// @p next (the next block's j, at least @p count of them; null: no prefetching), each loop that
+/// reads the particle arrays also prefetches them at next[s]: spread over the gather, the
+/// prefetches of the next block wait for the memory one at a time instead of stalling the pass in a
+/// burst of up to 11 x 64 before it (bench_step, one thread, paired steps against the burst:
+/// 0.980-0.995 at 997 477 spheres, 0.99-1.00 at 130 000; 50-step runs of the 998 400 lattice,
+/// median 0.97).
 template <bool kFriction>
 HWY_NOINLINE void pack_block(const detail::LanePassArgs& a, PairBlock& b, std::uint32_t first_k,
                              std::uint32_t count, const std::uint32_t* next) {
   const Particles& p = *a.particles;
   const std::uint32_t* HWY_RESTRICT first = b.first;
   const std::uint32_t* HWY_RESTRICT second = a.list->seconds() + first_k;
-  // Without a next block, the loops prefetch this block's j, whose lines they load anyway: one
-  // loop form, no branch per pair.
-  const std::uint32_t* HWY_RESTRICT ahead = next != nullptr ? next : second;
+  // The same for every pair of the call: a branch the predictor never misses.
+  const bool prefetch_next = next != nullptr;
   if (a.kinematics != nullptr) {
     pack_kinematics(a, b, first_k, count);
   } else {
@@ -206,9 +206,11 @@ HWY_NOINLINE void pack_block(const detail::LanePassArgs& a, PairBlock& b, std::u
     // The scalar pass adds every pair's shift, +0 for most: adding +0 here too turns a
     // difference of -0 into +0 as it does, and (x_j - x_i + 0) + s is (x_j - x_i) + s.
     for (std::uint32_t s = 0; s < count; ++s) {
-      __builtin_prefetch(x + ahead[s]);
-      __builtin_prefetch(y + ahead[s]);
-      __builtin_prefetch(z + ahead[s]);
+      if (prefetch_next) {
+        __builtin_prefetch(x + next[s]);
+        __builtin_prefetch(y + next[s]);
+        __builtin_prefetch(z + next[s]);
+      }
       b.dx[s] = x[second[s]] - x[first[s]] + 0.0;
       b.dy[s] = y[second[s]] - y[first[s]] + 0.0;
       b.dz[s] = z[second[s]] - z[first[s]] + 0.0;
@@ -244,8 +246,10 @@ HWY_NOINLINE void pack_block(const detail::LanePassArgs& a, PairBlock& b, std::u
     const double* HWY_RESTRICT radius = p.radius.data();
     const double* HWY_RESTRICT mass = p.mass.data();
     for (std::uint32_t s = 0; s < count; ++s) {
-      __builtin_prefetch(radius + ahead[s]);
-      __builtin_prefetch(mass + ahead[s]);
+      if (prefetch_next) {
+        __builtin_prefetch(radius + next[s]);
+        __builtin_prefetch(mass + next[s]);
+      }
       b.rj[s] = radius[second[s]];
       b.mj[s] = mass[second[s]];
     }
@@ -253,9 +257,11 @@ HWY_NOINLINE void pack_block(const detail::LanePassArgs& a, PairBlock& b, std::u
     const double* HWY_RESTRICT vy = p.vy.data();
     const double* HWY_RESTRICT vz = p.vz.data();
     for (std::uint32_t s = 0; s < count; ++s) {
-      __builtin_prefetch(vx + ahead[s]);
-      __builtin_prefetch(vy + ahead[s]);
-      __builtin_prefetch(vz + ahead[s]);
+      if (prefetch_next) {
+        __builtin_prefetch(vx + next[s]);
+        __builtin_prefetch(vy + next[s]);
+        __builtin_prefetch(vz + next[s]);
+      }
       b.dvx[s] = vx[second[s]] - vx[first[s]];
       b.dvy[s] = vy[second[s]] - vy[first[s]];
       b.dvz[s] = vz[second[s]] - vz[first[s]];
@@ -266,10 +272,10 @@ HWY_NOINLINE void pack_block(const detail::LanePassArgs& a, PairBlock& b, std::u
     const double* HWY_RESTRICT wy = p.wy.data();
     const double* HWY_RESTRICT wz = p.wz.data();
     for (std::uint32_t s = 0; s < count; ++s) {
-      if (a.kinematics == nullptr) {  // with records, LanePass prefetched the spins
-        __builtin_prefetch(wx + ahead[s]);
-        __builtin_prefetch(wy + ahead[s]);
-        __builtin_prefetch(wz + ahead[s]);
+      if (prefetch_next) {  // never with records: LanePass prefetched their spins
+        __builtin_prefetch(wx + next[s]);
+        __builtin_prefetch(wy + next[s]);
+        __builtin_prefetch(wz + next[s]);
       }
       b.wjx[s] = wx[second[s]];
       b.wjy[s] = wy[second[s]];
@@ -582,7 +588,7 @@ ContactSummary LanePass(const detail::LanePassArgs& a, std::size_t first_row,
     if (a.prefetch && next < pairs_end) {
       const std::uint32_t next_count = std::min(pairs_end - next, kLaneBlock);
       const std::uint32_t* js = a.list->seconds() + next;
-      // A shorter next block (the last) leaves the gather prefetching this block's j.
+      // A shorter next block (the last) is left to the hardware.
       if (a.kinematics == nullptr && next_count >= count) next_js = js;
       const Particles& p = *a.particles;
       for (std::uint32_t s = 0; a.kinematics != nullptr && s < next_count; ++s) {
@@ -801,11 +807,13 @@ std::vector<LanePairConstants> lane_pair_constants(const Scene& scene) {
 constexpr std::size_t kPrefetchParticles = 32768;
 
 namespace {
-/// set_kinematics_records_below's limit. Out of cache the records cost 64 B a particle, which the
-/// memory target (500 B a particle at 10^6) does not leave, and no longer pay: bench_step
-/// RecordsPaired, one thread, 0.90 at 997 477 spheres before the slots were streamed, 1.09-1.11
-/// since (the records at every size against this default).
-std::atomic<std::size_t> records_below{kPrefetchParticles};
+/// set_kinematics_records_below's limit: 0, the records never read by default. They cost 64 B a
+/// particle and the sweep's stores, and no longer pay at any size measured: whole runs of the
+/// peer lattice, one thread, alternating, without them against with them 0.93 at 20 800 spheres
+/// (median of 8 rounds, faster in all; 0.91-0.96 on two threads), 0.94 at 4 693 (6 rounds);
+/// bench_step RecordsPaired at 997 477 spheres 1.09-1.11 (0.90 before the slots were streamed).
+/// Kept selectable, with its identity test, for the benchmarks that compare the two gathers.
+std::atomic<std::size_t> records_below{0};
 
 /// Whether a pass over @p particles particles reads kinematics records (the sweep then writes
 /// them).

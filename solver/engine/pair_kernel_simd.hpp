@@ -69,11 +69,10 @@ struct LanePairConstants {
 std::vector<LanePairConstants> lane_pair_constants(const Scene& scene);
 
 /// What the SIMD pass keeps from call to call: below set_kinematics_records_below's limit (by
-/// default the particle count at which the pass prefetches, out of cache), each particle's
-/// position, radius, velocity and mass as two quadruples, which the block gather copies with two
-/// loads where it read eight arrays. The copy costs about 3 % of a run of the 20 800 peer lattice
-/// and the gather's share fell by 5 %; written by the opening sweep instead (records_for_sweep), it
-/// costs a few stores there.
+/// default none: measured slower at every size, pair_kernel_simd.cpp), each particle's position,
+/// radius, velocity and mass as two quadruples, which the block gather copies with two loads
+/// where it reads eight arrays, written by the opening sweep (records_for_sweep) or copied by the
+/// pass.
 struct LanePassScratch {
   StaggeredVector<double> kinematics;  ///< 8 values per particle (pair_kernel_simd.cpp)
   /// Whether @c kinematics holds the particles' kinematics as they are now: set by whoever wrote
@@ -83,9 +82,9 @@ struct LanePassScratch {
 };
 
 /// Runs from @p particles particles on read the particle arrays instead of kinematics records
-/// (LanePassScratch), which cost 64 B a particle (default 32 768, where the pass starts to
-/// prefetch); returns the previous limit. Process-wide, for tests and benchmarks: set it between
-/// steps. Both ways give the same bytes.
+/// (LanePassScratch), which cost 64 B a particle (default 0: the arrays at every size); returns
+/// the previous limit. Process-wide, for tests and benchmarks: set it between steps. Both ways
+/// give the same bytes.
 std::size_t set_kinematics_records_below(std::size_t particles);
 
 /// Runs from @p particles particles on write the pass's force slots with non-temporal stores
