@@ -186,9 +186,10 @@ HWY_INLINE void pack_kinematics(const detail::LanePassArgs& a, PairBlock& b, std
 /// @p next (the next block's j, at least @p count of them; null: no prefetching), each loop that
 /// reads the particle arrays also prefetches them at next[s]: spread over the gather, the
 /// prefetches of the next block wait for the memory one at a time instead of stalling the pass in a
-/// burst of up to 11 x 64 before it (bench_step, one thread, paired steps against the burst:
-/// 0.980-0.995 at 997 477 spheres, 0.99-1.00 at 130 000; 50-step runs of the 998 400 lattice,
-/// median 0.97).
+/// burst of up to 11 x 64 before it. What it gives depends on the host's hour: bench_step, one
+/// thread, paired steps against the burst 0.980-0.995 at 997 477 spheres, 0.99-1.00 at 130 000;
+/// 50-step runs of the 998 400 lattice against the burst's build, median 0.97 in a slow hour and
+/// 1.02 in a fast one (8 alternating rounds, 0.95-1.10).
 template <bool kFriction>
 HWY_NOINLINE void pack_block(const detail::LanePassArgs& a, PairBlock& b, std::uint32_t first_k,
                              std::uint32_t count, const std::uint32_t* next) {
