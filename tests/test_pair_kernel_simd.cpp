@@ -268,9 +268,8 @@ void expect_both_ways_give_the_same_bits(std::initializer_list<int> sizes,
   select_simd_target(SimdTarget::kAuto);
 }
 
-// The block gather reads each particle's kinematics from the records (in cache, below
-// set_kinematics_records_below's limit) or from the particle arrays (above it): a decomposed run
-// whose ranks hold fewer particles than one process would takes the other way, so both must give
+// The block gather reads each particle's kinematics from the records (below
+// set_kinematics_records_below's limit, 0 by default) or from the particle arrays: both must give
 // the same bits, on the small packing and on the large one, which also prefetches the records.
 TEST(PairKernelSimd, RecordsAndParticleArraysGiveTheSameBits) {
   expect_both_ways_give_the_same_bits({9, 33}, set_kinematics_records_below,
@@ -294,7 +293,12 @@ TEST(PairKernelSimd, StreamedAndCachedSlotsGiveTheSameBits) {
 // complete_step() (a decomposed run's step) leaves the pass to copy them from the particle arrays.
 // Both must move every particle alike, bit for bit, through rebuilds that reorder the particles
 // in memory: a record left over from before a rebuild would give another particle's kinematics.
+// The records are off by default, so the test turns them on at every size (restored on exit).
 TEST(PairKernelSimd, RecordsWrittenByTheSweepMatchRecordsCopiedByThePass) {
+  struct RecordsOn {
+    std::size_t limit = set_kinematics_records_below(std::numeric_limits<std::size_t>::max());
+    ~RecordsOn() { set_kinematics_records_below(limit); }
+  } records_on;
   Scene swept = jittered_packing();
   Scene copied = jittered_packing();
   for (Scene* scene : {&swept, &copied}) {

@@ -592,14 +592,16 @@ ContactSummary LanePass(const detail::LanePassArgs& a, std::size_t first_row,
       // A shorter next block (the last) is left to the hardware.
       if (a.kinematics == nullptr && next_count >= count) next_js = js;
       const Particles& p = *a.particles;
-      for (std::uint32_t s = 0; a.kinematics != nullptr && s < next_count; ++s) {
-        const std::uint32_t j = js[s];
-        __builtin_prefetch(a.kinematics + 4 * std::size_t{j});
-        __builtin_prefetch(a.kinematics + 4 * (p.size() + j));
-        if constexpr (kFriction) {
-          __builtin_prefetch(p.wx.data() + j);
-          __builtin_prefetch(p.wy.data() + j);
-          __builtin_prefetch(p.wz.data() + j);
+      if (a.kinematics != nullptr) {
+        for (std::uint32_t s = 0; s < next_count; ++s) {
+          const std::uint32_t j = js[s];
+          __builtin_prefetch(a.kinematics + 4 * std::size_t{j});
+          __builtin_prefetch(a.kinematics + 4 * (p.size() + j));
+          if constexpr (kFriction) {
+            __builtin_prefetch(p.wx.data() + j);
+            __builtin_prefetch(p.wy.data() + j);
+            __builtin_prefetch(p.wz.data() + j);
+          }
         }
       }
     }
