@@ -22,6 +22,14 @@
 # under its own /usr/bin/time, which bounds their simultaneous peak from above and leaves out
 # mpirun itself). Results: output/compare_peers/summary.md (also printed), timings.csv, logs.
 #
+# Around every two-core run, $build/bench/bench_core_latency measures the one-way latency of a
+# cache line between CPUs 0 and 1 (timings.csv's last two columns, before and after the run). On
+# this virtual machine the host moves its two vCPUs between cores that share a level-3 cache
+# (about 30 ns) and cores on different dies (about 170 ns) every few seconds to minutes; bondem's
+# two threads exchange the particles and force slots where their shares meet and run about 1.35
+# times as long on different dies, while the peers' MPI ranks and two independent runs do not
+# notice. The rounds table reports bondem's two cores over one for each placement apart.
+#
 # Needs `lmp`, `liggghts`, `mpirun` and GNU time (apt-get install --no-install-recommends lammps
 # liggghts time: without --no-install-recommends apt also pulls python3-paraview, which removes
 # libvtk9-dev).
@@ -60,7 +68,8 @@ select_lattice() {
 }
 
 # One run of one code on `cores` cores; appends "lattice,code,cores,rep,wall_s,wall_rate,
-# loop_rate,peak_kib" to timings.csv and keeps its log as <lattice>.<code>.<cores>.log.
+# loop_rate,peak_kib,core_ns_before,core_ns_after" to timings.csv (the latencies of two-core runs
+# only) and keeps its log as <lattice>.<code>.<cores>.log.
 run_code() {
   local lattice=$1 code=$2 cores=$3 rep=$4 log="$out/$1.$2.$3.log" loop_rate
   local times="$out/$1.$2.$3.time" ranks="$out/$1.$2.$3.rss"
@@ -72,6 +81,8 @@ run_code() {
     liggghts) cmd=(liggghts -in "$peer_input.liggghts" -log none) ;;
   esac
   rm -f "$ranks"
+  local before="" after=""
+  [[ $cores -eq 2 ]] && before=$(core_latency)
   if [[ $code != bondem && $cores -gt 1 ]]; then
     cmd=(mpirun --allow-run-as-root -np "$cores" /usr/bin/time -f %M -a -o "$ranks" "${cmd[@]}")
   fi
@@ -80,6 +91,7 @@ run_code() {
   OMP_NUM_THREADS=$([[ $code == bondem ]] && echo "$cores" || echo 1) \
     /usr/bin/time -f '%e %M' -o "$times" "${cmd[@]}" >"$log" 2>&1 ||
     { echo "compare_peers: $code failed on the $lattice lattice ($cores cores); see $log" >&2; exit 1; }
+  [[ $cores -eq 2 ]] && after=$(core_latency)
   read -r wall peak <"$times"
   [[ -f $ranks ]] && peak=$(awk '{ s += $1 } END { print s }' "$ranks")
   if [[ $code == bondem ]]; then
@@ -88,8 +100,15 @@ run_code() {
     loop_rate=$(awk -v n="$particles" -v s="$steps" '/^Loop time of/ { printf "%.0f", n * s / $4; exit }' "$log")
   fi
   awk -v l="$lattice" -v k="$code" -v c="$cores" -v r="$rep" -v w="$wall" -v n="$particles" -v s="$steps" \
-    -v lr="$loop_rate" -v p="$peak" 'BEGIN { printf "%s,%s,%d,%d,%.2f,%.0f,%s,%d\n", l, k, c, r, w, n * s / w, lr, p }' \
+    -v lr="$loop_rate" -v p="$peak" -v b="$before" -v a="$after" \
+    'BEGIN { printf "%s,%s,%d,%d,%.2f,%.0f,%s,%d,%s,%s\n", l, k, c, r, w, n * s / w, lr, p, b, a }' \
     >>"$out/timings.csv"
+}
+
+# One-way latency [ns] of a cache line between CPUs 0 and 1 now; empty without the probe.
+core_latency() {
+  [[ -x $build/bench/bench_core_latency ]] || return 0
+  "$build/bench/bench_core_latency" 0 1 | awk -F' = ' '{ print $2 }'
 }
 
 # Median of column `field` of timings.csv over one lattice, code and core count.

@@ -1,13 +1,21 @@
 # Per round of compare_peers.sh's timings.csv (lattice,code,cores,rep,wall,...), for lattice l:
 # bondem's wall time against the faster peer's of the same round at each core count, and bondem's
 # one core against its two cores, each as the list of rounds and its median. A round runs every
-# code once, back to back, so its ratios share the host's state of the moment.
+# code once, back to back, so its ratios share the host's state of the moment. Each code's two
+# cores over one is also given per placement of the two vCPUs, from the core-to-core latency
+# probed before and after its two-core run (columns 9 and 10): both under kFarNs, CPUs sharing a
+# cache; both above, CPUs on different dies; a run with one of each is in neither.
+BEGIN { kFarNs = 100 }
 function median_of(v, n,    i, j, t) {
   for (i = 2; i <= n; ++i) for (j = i; j > 1 && v[j - 1] > v[j]; --j) { t = v[j]; v[j] = v[j - 1]; v[j - 1] = t }
   return n % 2 ? v[(n + 1) / 2] : (v[n / 2] + v[n / 2 + 1]) / 2
 }
 $1 == l {
   wall[$3, $4, $2] = $5
+  if ($3 == 2 && $9 != "" && $10 != "") {
+    placement[$2, $4] = ($9 < kFarNs && $10 < kFarNs) ? "near" : (($9 >= kFarNs && $10 >= kFarNs) ? "far" : "")
+  }
+  code[$2] = 1
   if ($4 > rounds) rounds = $4
   if ($2 != "bondem") peer[$2] = 1
   cores[$3] = 1
@@ -33,4 +41,22 @@ END {
     text = text (n > 1 ? ", " : "") sprintf("%.2f", v[n])
   }
   if (n > 0) printf "| %s | bondem two cores over one | %s | %.2f |\n", l, text, median_of(v, n)
+  split("near far", kinds, " ")
+  label["near"] = "vCPUs sharing a cache (core to core < " kFarNs " ns)"
+  label["far"] = "vCPUs on different dies (core to core > " kFarNs " ns)"
+  split("bondem lammps liggghts", names, " ")
+  for (name = 1; name <= 3; ++name) {
+    k = names[name]
+    if (!(k in code)) continue
+    for (kind = 1; kind <= 2; ++kind) {
+      n = 0; text = ""
+      for (r = 1; r <= rounds; ++r) {
+        if (!((k SUBSEP r) in placement) || placement[k, r] != kinds[kind]) continue
+        if (!((1 SUBSEP r SUBSEP k) in wall) || !((2 SUBSEP r SUBSEP k) in wall)) continue
+        v[++n] = wall[1, r, k] / wall[2, r, k]
+        text = text (n > 1 ? ", " : "") sprintf("%.2f", v[n])
+      }
+      if (n > 0) printf "| %s | %s two cores over one, %s | %s | %.2f |\n", l, k, label[kinds[kind]], text, median_of(v, n)
+    }
+  }
 }
