@@ -149,6 +149,57 @@ TEST(ThreadSplit, RebalancesByTheChunksEachThreadRan) {
   EXPECT_EQ(split.begin(1), 635u);
 }
 
+TEST(ThreadSplit, DeferredSplitMovesOnceAStepByThePassesSummedCost) {
+  // Two passes a step over 1 280 chunks split 640/640. Pass A: thread 0 takes 3 s per chunk,
+  // thread 1 1 s; pass B: 1 s each. Summed, 4 against 2: the step's times are equal with share 0
+  // at 1 280 / 3 = 426.7 chunks. Neither pass alone moves the split; rebalance_pending() does,
+  // by at most 5 chunks a call (1 280 / 256), and only once per step's costs.
+  constexpr std::size_t kChunks = 1280;
+  ThreadSplit split{ThreadSplit::Deferred{}};
+  split.prepare(kChunks, 2);
+  const auto step = [&] {
+    const double share0 = static_cast<double>(split.begin(1));
+    const double share1 = static_cast<double>(kChunks - split.begin(1));
+    split.add_pending(std::vector<double>{3.0 * share0, share1}, {});
+    split.add_pending(std::vector<double>{share0, share1}, {});
+  };
+  step();
+  EXPECT_EQ(split.begin(1), 640u);
+  split.rebalance_pending();
+  EXPECT_EQ(split.begin(1), 635u);
+  split.rebalance_pending();  // nothing added since: no move
+  EXPECT_EQ(split.begin(1), 635u);
+  for (int call = 0; call < 300; ++call) {
+    step();
+    split.rebalance_pending();
+  }
+  EXPECT_NEAR(static_cast<double>(split.begin(1)), 1280.0 / 3.0, 1.0);
+}
+
+TEST(ThreadSplit, DeferredSplitStaysWhereItIsThroughRun) {
+  // However the threads' times come out, run() on a Deferred split leaves its shares alone. With
+  // share 0's chunks ten times as costly a split moved after each call would go toward share 1
+  // (by a chunk a call); which way rebalance_pending() then moves it depends on the threads'
+  // timing, which a loaded machine can invert, so only the former is asserted.
+  ThreadSplit split{ThreadSplit::Deferred{}};
+  split.prepare(64, 2);
+  for (int call = 0; call < 20; ++call) {
+    const std::size_t covered = split.run(
+        std::size_t{0},
+        [&](int share, std::size_t first, std::size_t end) {
+          // Share 0's chunks ten times as costly: an immediate split would move.
+          volatile double sink = 0.0;
+          for (std::size_t c = first; c < end; ++c) {
+            for (int k = 0; k < (share == 0 ? 20000 : 2000); ++k) sink = sink + 1.0;
+          }
+          return end - first;
+        },
+        [](std::size_t& all, std::size_t part) { all += part; });
+    EXPECT_EQ(covered, 64u);
+    EXPECT_EQ(split.begin(1), 32u);
+  }
+}
+
 TEST(SortInParallel, GivesStdSortsOrderAtOneToFourThreads) {
   // 20 000 keys (above the 4 096 from which it splits) with many equal first values, ordered
   // with their index as the tie-break: one sorted sequence, which 3 threads (pieces merged

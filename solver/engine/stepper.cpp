@@ -101,15 +101,15 @@ ContactSummary Stepper::evaluate_forces(const Law& law) {
   ContactSummary pairs =
       lanes
           ? simd_pair_forces(scene_.particles, scene_, list_, lane_constants_, criterion,
-                             pair_forces_, history_, counted, &pair_split_, &lane_scratch_)
+                             pair_forces_, history_, counted, &step_split_, &lane_scratch_)
           : compute_pair_forces<kFriction, kModels>(scene_.particles, scene_, list_, law, criterion,
-                                                    pair_forces_, history_, counted, &pair_split_);
+                                                    pair_forces_, history_, counted, &step_split_);
   // The boundaries' frames at their poses of this step, into storage kept across steps.
   boundary_frames_.clear();
   for (const Boundary& boundary : scene_.boundaries) boundary_frames_.push_back(frame_of(boundary));
   const ContactSummary walls = gather_forces<kFriction, kModels>(
       scene_.particles, scene_, list_, boundary_candidates_, boundary_frames_, law, pair_forces_,
-      wall_loads_, gather_split_, counted);
+      wall_loads_, step_split_, counted);
   pairs.wall_contacts = walls.wall_contacts;
   pairs.max_overlap = std::max(pairs.max_overlap, walls.max_overlap);
   pairs.max_overlap_fraction = std::max(pairs.max_overlap_fraction, walls.max_overlap_fraction);
@@ -439,12 +439,12 @@ double Stepper::drift(double dt, bool write_records) {
   }
   const std::size_t chunks = (n + kPairPassChunk - 1) / kPairPassChunk;
   // A contiguous run of chunks per thread, moved toward equal times (thread_split.hpp).
-  opening_split_.prepare(chunks, threads_in_use(n));
+  step_split_.prepare(chunks, threads_in_use(n));
   if (closing_pending_) {
     // The last step's closing kicks and this step's opening ones in one sweep; its finite test
     // is the closing sweep's, of the last step (step_count_ and time_ still name it).
     closing_pending_ = false;
-    const SweepResult result = opening_split_.run(
+    const SweepResult result = step_split_.run(
         SweepResult{},
         [&](int, std::size_t first_chunk, std::size_t end_chunk) {
           return closing_opening_sweep(arrays, dt, first_chunk * kPairPassChunk,
@@ -461,7 +461,7 @@ double Stepper::drift(double dt, bool write_records) {
     lane_scratch_.current = arrays.records != nullptr;
     return result.largest_sq;
   }
-  const double largest_sq = opening_split_.run(
+  const double largest_sq = step_split_.run(
       0.0,
       [&](int, std::size_t first_chunk, std::size_t end_chunk) {
         return opening_sweep(arrays, dt, first_chunk * kPairPassChunk,
@@ -477,8 +477,8 @@ bool Stepper::finish_step(double dt) {
   const std::size_t n = p.size();
   const SweepArrays arrays = sweep_arrays();
   const std::size_t chunks = (n + kPairPassChunk - 1) / kPairPassChunk;
-  closing_split_.prepare(chunks, threads_in_use(n));
-  bool finite = closing_split_.run(
+  step_split_.prepare(chunks, threads_in_use(n));
+  bool finite = step_split_.run(
       true,
       [&](int, std::size_t first_chunk, std::size_t end_chunk) {
         return closing_sweep(arrays, dt, first_chunk * kPairPassChunk,
@@ -570,6 +570,7 @@ void Stepper::complete_step(bool rebuild) {
   const bool defer = defer_closing_ && !overlap_exceeded && !scene_.particles.thermal();
   const bool finite = defer || finish_step(dt);
   closing_pending_ = defer;
+  step_split_.rebalance_pending();
   bonds_formed_ += static_cast<std::int64_t>(contacts_.bonds_formed);
   bonds_broken_ += static_cast<std::int64_t>(contacts_.bonds_broken);
   time_ = static_cast<double>(++step_count_) * dt;

@@ -334,15 +334,17 @@ class Stepper {
   NeighborList list_;
   PairForces pair_forces_;
   PairHistory history_;
-  std::vector<ExactSum> wall_loads_;  ///< per share of gather_split_ and boundary, last evaluation
+  std::vector<ExactSum> wall_loads_;  ///< per share of step_split_ and boundary, last evaluation
   std::vector<BoundaryCandidates> boundary_candidates_;  ///< per boundary; gathered with every list
   std::vector<BoundaryFrame> boundary_frames_;           ///< per boundary, at the last evaluation
   /// Per material pair, the SIMD pass's constants; empty where the run takes the scalar pass
   /// (simd_pass_applies).
   std::vector<LanePairConstants> lane_constants_;
   LanePassScratch lane_scratch_;  ///< the SIMD pass's buffers, kept across steps
-  /// Each pass's shares of the particles per thread, balanced by measured time (thread_split.hpp).
-  ThreadSplit opening_split_, pair_split_, gather_split_, closing_split_;
+  /// The threads' shares of the particles, one split for every pass of a step (the sweeps, pass 1's
+  /// rows, pass 2): a particle's data then stay in one core's caches from pass to pass. Moved
+  /// once a step by the passes' summed cost per chunk (thread_split.hpp).
+  ThreadSplit step_split_{ThreadSplit::Deferred{}};
   ContactSummary contacts_;
   double time_ = 0.0;
   std::int64_t step_count_ = 0;

@@ -4,9 +4,17 @@
 /// A pass over particles splits them into contiguous runs of chunks, one per thread. Equal runs
 /// are not equal work: rows differ in pairs, and the threads near a split read what the other
 /// thread wrote (cache lines moving between cores), which on the 20 800 peer lattice made one
-/// thread's pass 1 ~15 % slower than the other's, while its sweeps ran faster. Each pass keeps
-/// its own split and moves it after every call toward equal measured times. What the times of one
-/// step do not foretell (a CPU slowed by the host, a thread woken late) the threads even out
+/// thread's pass 1 ~15 % slower than the other's, while its sweeps ran faster. A split moves
+/// toward equal measured times: after every call, or (a Deferred split, which the stepper's
+/// passes share) once a step by the passes' summed cost per chunk. One split for every pass keeps
+/// a particle's data in the caches of the core that wrote them: where each pass balanced its own
+/// split, pass 1's and pass 2's boundaries lay 10-20 chunks apart on the 20 800 peer lattice, and
+/// the particles between them crossed between the cores every step. That costs little when the
+/// two cores share a level-3 cache and much when they do not (bench_core_latency): two threads
+/// on the 20 800 lattice ran 0.95 of the time with the shared split when the host had put them
+/// on different dies (eight alternating pairs, 1.55 against 1.64 s), the same when it had not
+/// (1.16 against 1.18 s), and the same at 10^6 (1.90 against 1.89 s, 50 steps). What the times of
+/// one step do not foretell (a CPU slowed by the host, a thread woken late) the threads even out
 /// within the step: one that is done takes chunks from the back of a share still running
 /// (measured on the peer lattices with two threads, steps paired in one process: 1-3 % faster at
 /// 20 800 particles, 6 % at 10^6). The split decides only which thread computes a particle or
@@ -30,6 +38,14 @@ namespace bondem {
 /// A pass's contiguous shares of chunks, one per thread, balanced by measured time.
 class ThreadSplit {
  public:
+  /// Tag of a split that several passes share: run() leaves it where it is and keeps its
+  /// threads' costs, and rebalance_pending() moves it once for all of them by their summed cost.
+  struct Deferred {};
+  /// A split that run() moves after each call.
+  ThreadSplit() = default;
+  /// A split moved by rebalance_pending() only.
+  explicit ThreadSplit(Deferred) : deferred_(true) {}
+
   /// Equal shares of @p chunks over @p threads, unless the split already has these counts.
   void prepare(std::size_t chunks, int threads) {
     const auto shares = static_cast<std::size_t>(std::max(threads, 1));
@@ -39,6 +55,9 @@ class ThreadSplit {
     for (std::size_t t = 0; t <= shares; ++t) begin_[t] = chunks * t / shares;
     seconds_.assign(shares, 0.0);
     cost_.assign(shares, 0.0);
+    pending_cost_.assign(shares, 0.0);
+    call_cost_.assign(shares, 0.0);
+    pending_ = false;
     left_ = std::make_unique<Left[]>(shares);
     done_.assign(shares, 0);
   }
@@ -112,8 +131,31 @@ class ThreadSplit {
 #pragma omp critical(bondem_thread_split)
       if (mine) combine(result, *mine);
     }
-    rebalance(seconds_, done_);
+    if (deferred_) {
+      add_pending(seconds_, done_);
+    } else {
+      rebalance(seconds_, done_);
+    }
     return result;
+  }
+
+  /// What run() does after each call of a Deferred split: adds the seconds per chunk of share
+  /// t's thread, @p seconds[t] over @p done[t] chunks (empty: its own share's), to the costs that
+  /// rebalance_pending() moves the split by. Public for tests.
+  void add_pending(std::span<const double> seconds, std::span<const std::size_t> done) {
+    if (!costs_of(seconds, done, call_cost_)) return;
+    for (std::size_t t = 0; t < call_cost_.size(); ++t) pending_cost_[t] += call_cost_[t];
+    pending_ = true;
+  }
+
+  /// Moves the split by the costs that the run() calls since the last call added up: each
+  /// share's seconds per chunk summed over those passes, so that the shares balance the passes'
+  /// total time. Nothing when no call measured every share.
+  void rebalance_pending() {
+    if (!pending_) return;
+    pending_ = false;
+    rebalance_to(pending_cost_);
+    std::fill(pending_cost_.begin(), pending_cost_.end(), 0.0);
   }
 
   /// Whether run() lets a thread take chunks of other shares (the default); off, each thread
@@ -134,17 +176,35 @@ class ThreadSplit {
   /// rebalance() where share t's thread ran @p done[t] chunks in @p seconds[t] (with chunks
   /// taken from other shares); empty: its own share's.
   void rebalance(std::span<const double> seconds, std::span<const std::size_t> done) {
+    if (!costs_of(seconds, done, call_cost_)) return;
+    rebalance_to(call_cost_);
+  }
+
+ private:
+  /// Each share's seconds per chunk in @p cost from its thread's @p seconds over @p done chunks
+  /// (empty: its own share's); false, and @p cost untouched, if some share measured nothing.
+  bool costs_of(std::span<const double> seconds, std::span<const std::size_t> done,
+                std::span<double> cost) const {
     const std::size_t shares = cost_.size();
-    if (seconds.size() != shares || shares < 2 || chunks_ < 2 * shares) return;
+    if (seconds.size() != shares || shares < 2 || chunks_ < 2 * shares) return false;
     for (std::size_t t = 0; t < shares; ++t) {
-      if (!(seconds[t] > 0.0)) return;  // nothing measured: keep the split
-      if (!done.empty() && done[t] == 0) return;
+      if (!(seconds[t] > 0.0)) return false;  // nothing measured: keep the split
+      if (!done.empty() && done[t] == 0) return false;
     }
-    double total_speed = 0.0;
     for (std::size_t t = 0; t < shares; ++t) {
       const std::size_t chunks = done.empty() ? begin_[t + 1] - begin_[t] : done[t];
-      const double cost = seconds[t] / static_cast<double>(chunks);
-      cost_[t] = cost_[t] > 0.0 ? cost_[t] + kNewWeight * (cost - cost_[t]) : cost;
+      cost[t] = seconds[t] / static_cast<double>(chunks);
+    }
+    return true;
+  }
+
+  /// rebalance() from each share's seconds per chunk, @p cost.
+  void rebalance_to(std::span<const double> cost) {
+    const std::size_t shares = cost_.size();
+    if (cost.size() != shares || shares < 2 || chunks_ < 2 * shares) return;
+    double total_speed = 0.0;
+    for (std::size_t t = 0; t < shares; ++t) {
+      cost_[t] = cost_[t] > 0.0 ? cost_[t] + kNewWeight * (cost[t] - cost_[t]) : cost[t];
       total_speed += 1.0 / cost_[t];
     }
     const double max_move = std::max(1.0, kMaxMove * static_cast<double>(chunks_));
@@ -160,7 +220,6 @@ class ThreadSplit {
     }
   }
 
- private:
   /// The chunks of a share not yet claimed, [front, back), in one word: claims from both ends
   /// by compare-and-swap. A cache line of its own.
   struct alignas(64) Left {
@@ -201,8 +260,12 @@ class ThreadSplit {
   static constexpr double kMaxMove = 1.0 / 256.0;
   static constexpr double kNewWeight = 0.125;
   std::size_t chunks_ = 0;
-  std::vector<std::size_t> begin_;  ///< size threads + 1
-  std::vector<double> cost_;        ///< per share, average seconds per chunk (0: none yet)
+  std::vector<std::size_t> begin_;    ///< size threads + 1
+  std::vector<double> cost_;          ///< per share, average seconds per chunk (0: none yet)
+  bool deferred_ = false;             ///< constructed with Deferred
+  bool pending_ = false;              ///< pending_cost_ holds a measured call
+  std::vector<double> pending_cost_;  ///< per share, seconds per chunk summed over the calls
+  std::vector<double> call_cost_;     ///< per share, the last call's seconds per chunk
 };
 
 }  // namespace bondem
