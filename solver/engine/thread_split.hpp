@@ -8,11 +8,11 @@
 /// toward equal measured times: after every call, or (a Deferred split, which the stepper's
 /// passes share) once a step by the passes' summed cost per chunk. One split for every pass keeps
 /// a particle's data in the caches of the core that wrote them: where each pass balanced its own
-/// split, pass 1's and pass 2's boundaries lay 10-20 chunks apart on the 20 800 peer lattice, and
+/// split, pass 1's and pass 2's boundaries lay 9-25 chunks apart on the 20 800 peer lattice, and
 /// the particles between them crossed between the cores every step. That costs little when the
 /// two cores share a level-3 cache and much when they do not (bench_core_latency): two threads
-/// on the 20 800 lattice ran 0.95 of the time with the shared split when the host had put them
-/// on different dies (eight alternating pairs, 1.55 against 1.64 s), the same when it had not
+/// on the 20 800 lattice ran 0.96 of the time with the shared split when the host had put them
+/// on different dies (eight alternating pairs, 1.56 against 1.64 s), the same when it had not
 /// (1.16 against 1.18 s), and the same at 10^6 (1.90 against 1.89 s, 50 steps). What the times of
 /// one step do not foretell (a CPU slowed by the host, a thread woken late) the threads even out
 /// within the step: one that is done takes chunks from the back of a share still running
