@@ -5,8 +5,8 @@
 ///
 /// Why: on this virtual machine the host moves the two vCPUs between cores that share a level-3
 /// cache (about 30 ns one way) and cores on different dies (about 170 ns), every few seconds to
-/// minutes. Two independent one-thread runs do not notice; a two-thread bondem run does, because
-/// its threads read the force slots and particles the other one wrote where their shares meet.
+/// minutes. Two independent one-thread runs do not notice; a two-thread bondem run does (its
+/// threads share cache lines: the particles and force slots one writes and the other reads).
 /// bench/compare_peers.sh runs this probe beside every two-core run and reports the ratios of
 /// each placement apart.
 #include <pthread.h>
