@@ -10,6 +10,18 @@ function median_of(v, n,    i, j, t) {
   for (i = 2; i <= n; ++i) for (j = i; j > 1 && v[j - 1] > v[j]; --j) { t = v[j]; v[j] = v[j - 1]; v[j - 1] = t }
   return n % 2 ? v[(n + 1) / 2] : (v[n / 2] + v[n / 2 + 1]) / 2
 }
+# Prints code k's one core over two cores per round and their median, over the rounds whose
+# two-core run had placement `kind` ("" for every round), as the row `title`.
+function two_over_one(k, kind, title,    r, n, text, v) {
+  n = 0; text = ""
+  for (r = 1; r <= rounds; ++r) {
+    if (kind != "" && (!((k SUBSEP r) in placement) || placement[k, r] != kind)) continue
+    if (!((1 SUBSEP r SUBSEP k) in wall) || !((2 SUBSEP r SUBSEP k) in wall)) continue
+    v[++n] = wall[1, r, k] / wall[2, r, k]
+    text = text (n > 1 ? ", " : "") sprintf("%.2f", v[n])
+  }
+  if (n > 0) printf "| %s | %s | %s | %.2f |\n", l, title, text, median_of(v, n)
+}
 $1 == l {
   wall[$3, $4, $2] = $5
   if ($3 == 2 && $9 != "" && $10 != "") {
@@ -34,29 +46,15 @@ END {
     }
     if (n > 0) printf "| %s | bondem / faster peer, %d core%s | %s | %.2f |\n", l, c, (c > 1 ? "s" : ""), text, median_of(v, n)
   }
-  n = 0; text = ""
-  for (r = 1; r <= rounds; ++r) {
-    if (!((1 SUBSEP r SUBSEP "bondem") in wall) || !((2 SUBSEP r SUBSEP "bondem") in wall)) continue
-    v[++n] = wall[1, r, "bondem"] / wall[2, r, "bondem"]
-    text = text (n > 1 ? ", " : "") sprintf("%.2f", v[n])
-  }
-  if (n > 0) printf "| %s | bondem two cores over one | %s | %.2f |\n", l, text, median_of(v, n)
-  split("near far", kinds, " ")
+  two_over_one("bondem", "", "bondem two cores over one")
   label["near"] = "vCPUs sharing a cache (core to core < " kFarNs " ns)"
   label["far"] = "vCPUs on different dies (core to core > " kFarNs " ns)"
   split("bondem lammps liggghts", names, " ")
+  split("near far", kinds, " ")
   for (name = 1; name <= 3; ++name) {
-    k = names[name]
-    if (!(k in code)) continue
+    if (!(names[name] in code)) continue
     for (kind = 1; kind <= 2; ++kind) {
-      n = 0; text = ""
-      for (r = 1; r <= rounds; ++r) {
-        if (!((k SUBSEP r) in placement) || placement[k, r] != kinds[kind]) continue
-        if (!((1 SUBSEP r SUBSEP k) in wall) || !((2 SUBSEP r SUBSEP k) in wall)) continue
-        v[++n] = wall[1, r, k] / wall[2, r, k]
-        text = text (n > 1 ? ", " : "") sprintf("%.2f", v[n])
-      }
-      if (n > 0) printf "| %s | %s two cores over one, %s | %s | %.2f |\n", l, k, label[kinds[kind]], text, median_of(v, n)
+      two_over_one(names[name], kinds[kind], names[name] " two cores over one, " label[kinds[kind]])
     }
   }
 }
