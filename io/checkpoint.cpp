@@ -21,10 +21,15 @@ namespace {
 constexpr char kMagic[8] = {'B', 'O', 'N', 'D', 'E', 'M', 'C', 'K'};
 /// Bytes before the payload: magic, version, payload size.
 constexpr std::size_t kHeaderBytes = sizeof kMagic + sizeof(std::uint32_t) + sizeof(std::uint64_t);
-/// Bytes of a pair's state in the payload: its ids, springs, bond and JKR flags, field by field
-/// (the struct's padding bytes are not part of the state).
-constexpr std::size_t kSlipBytes = 2 * sizeof(std::int64_t) + 6 * sizeof(double) +
-                                   sizeof(SlipRecord::bonded) + sizeof(SlipRecord::joined);
+/// Bytes of a pair's state in the payload, field by field (the struct's padding bytes are not part
+/// of the state): its ids, tangential spring and bond flag, and in runs with contact history
+/// (Particles::contact_history) its rolling spring and JKR flag too, which are zero in the others
+/// (a third of a frictional run's checkpoint).
+std::size_t slip_bytes(bool contact_history) {
+  const std::size_t always =
+      2 * sizeof(std::int64_t) + 3 * sizeof(double) + sizeof(SlipRecord::bonded);
+  return always + (contact_history ? 3 * sizeof(double) + sizeof(SlipRecord::joined) : 0);
+}
 
 /// FNV-1a, 64 bit: simple, dependency-free, and enough to catch truncation and bit rot.
 std::uint64_t fnv1a(const char* data, std::size_t size,
@@ -630,17 +635,23 @@ void put_payload(Writer& payload, const CheckpointView& checkpoint, std::uint64_
   payload.put(static_cast<std::int32_t>(p.walls));
   put_section(CheckpointSection::kWall);
   // Field by field: the struct's padding bytes are not part of the state.
+  const bool slip_history = p.contact_history;
+  payload.put(static_cast<std::uint8_t>(slip_history ? 1 : 0));
   payload.put(slips);
   std::uint64_t visited = 0;
   if (!payload.streams()) {
-    payload.skip(slips * kSlipBytes);  // counted: the pairs are walked in the writing pass
+    // counted: the pairs are walked in the writing pass
+    payload.skip(slips * slip_bytes(slip_history));
   } else {
     checkpoint.for_each_slip([&](const SlipRecord& slip) {
       payload.put(slip.first_id);
       payload.put(slip.second_id);
-      for (const double v : {slip.sx, slip.sy, slip.sz, slip.rx, slip.ry, slip.rz}) payload.put(v);
+      for (const double v : {slip.sx, slip.sy, slip.sz}) payload.put(v);
       payload.put(slip.bonded);
-      payload.put(slip.joined);
+      if (slip_history) {
+        for (const double v : {slip.rx, slip.ry, slip.rz}) payload.put(v);
+        payload.put(slip.joined);
+      }
       ++visited;
     });
     // A serving process visits none: the writer checks the count.
@@ -820,32 +831,36 @@ std::ifstream open_checked_payload(const std::string& path, std::uint64_t& size,
   return in;
 }
 
-/// One pair's record, as write_checkpoint() writes it.
-SlipRecord read_slip(Reader& r) {
+/// One pair's record, as write_checkpoint() writes it (@p history: with its rolling spring and
+/// JKR flag, slip_bytes).
+SlipRecord read_slip(Reader& r, bool history) {
   SlipRecord slip{};
   slip.first_id = r.get<std::int64_t>();
   slip.second_id = r.get<std::int64_t>();
   slip.sx = r.get<double>();
   slip.sy = r.get<double>();
   slip.sz = r.get<double>();
-  slip.rx = r.get<double>();
-  slip.ry = r.get<double>();
-  slip.rz = r.get<double>();
   slip.bonded = r.get<std::uint8_t>();
-  slip.joined = r.get<std::uint8_t>();
+  if (history) {
+    slip.rx = r.get<double>();
+    slip.ry = r.get<double>();
+    slip.rz = r.get<double>();
+    slip.joined = r.get<std::uint8_t>();
+  }
   return slip;
 }
 
-/// Visits the @p count pair records at byte @p at of checkpoint @p path, read from @p in (kept
-/// open: a checkpoint is replaced by a rename, which leaves the verified file this reads).
+/// Visits the @p count pair records (@p history as in read_slip) at byte @p at of checkpoint
+/// @p path, read from @p in (kept open: a checkpoint is replaced by a rename, which leaves the
+/// verified file this reads).
 SlipSource streamed_slips(std::shared_ptr<std::ifstream> in, std::streamoff at, std::uint64_t count,
-                          std::string path) {
-  return [in = std::move(in), at, count,
+                          bool history, std::string path) {
+  return [in = std::move(in), at, count, history,
           path = std::move(path)](const std::function<void(const SlipRecord&)>& visit) {
     in->clear();
     in->seekg(at);
-    Reader r(*in, count * kSlipBytes, path);
-    for (std::uint64_t k = 0; k < count; ++k) visit(read_slip(r));
+    Reader r(*in, count * slip_bytes(history), path);
+    for (std::uint64_t k = 0; k < count; ++k) visit(read_slip(r, history));
   };
 }
 
@@ -917,19 +932,22 @@ Checkpoint read_checkpoint(const std::string& path, const CheckpointScope& scope
   if (p.walls < 0) r.fail("negative wall count");
   if (p.walls > INT32_MAX / Particles::kWallContactValues) r.fail("implausible wall count");
   get_section(CheckpointSection::kWall);
+  const std::uint8_t slip_history = r.get<std::uint8_t>();
+  if (slip_history > 1) r.fail("invalid pair record layout");
   const auto slip_count = r.get<std::uint64_t>();
-  r.check_room(slip_count, kSlipBytes);
+  const std::size_t slip_size = slip_bytes(slip_history != 0);
+  r.check_room(slip_count, slip_size);
   // With rows kept, the pairs of a kept particle (the kept ids are in order: the file is by id).
   const auto kept = [&](std::int64_t id) {
     return std::binary_search(p.id.begin(), p.id.end(), id);
   };
   if (scope.pairs_streamed) {
-    s.slip_source = streamed_slips(in, in->tellg(), slip_count, path);
-    r.skip(slip_count * kSlipBytes);
+    s.slip_source = streamed_slips(in, in->tellg(), slip_count, slip_history != 0, path);
+    r.skip(slip_count * slip_size);
   } else {
     if (scope.rows == nullptr) s.slips.reserve(slip_count);
     for (std::uint64_t k = 0; k < slip_count; ++k) {
-      const SlipRecord slip = read_slip(r);
+      const SlipRecord slip = read_slip(r, slip_history != 0);
       if (scope.rows == nullptr || kept(slip.first_id) || kept(slip.second_id)) {
         s.slips.push_back(slip);
       }

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <numbers>
@@ -12,6 +13,7 @@
 
 #include "case_text.hpp"
 #include "io/case_file.hpp"
+#include "io/checkpoint.hpp"
 #include "io/run.hpp"
 #include "run_helpers.hpp"
 #include "scene_builders.hpp"
@@ -261,6 +263,15 @@ TEST(ContactHistory, JkrAndEpsdRestartAndThreadBitForBit) {
   EXPECT_GT(result.contacts.contacts, 200u);  // the history is exercised
   EXPECT_GT(result.contacts.wall_contacts, 20u);
   testing::quiet_run(sticky_gas(0.5e-3), half);
+  // The checkpoint keeps the pairs' rolling springs and JKR flags (its pair records carry them
+  // only in runs with contact history): the continued run below needs them to agree.
+  const Checkpoint saved = read_checkpoint((half / "checkpoint.bin").string());
+  ASSERT_TRUE(saved.particles.contact_history);
+  EXPECT_TRUE(std::any_of(saved.stepper.slips.begin(), saved.stepper.slips.end(),
+                          [](const SlipRecord& s) { return s.joined != 0; }));
+  EXPECT_TRUE(
+      std::any_of(saved.stepper.slips.begin(), saved.stepper.slips.end(),
+                  [](const SlipRecord& s) { return s.rx != 0.0 || s.ry != 0.0 || s.rz != 0.0; }));
   testing::quiet_run(sticky_gas(1.0e-3), half, (half / "checkpoint.bin").string());
   EXPECT_TRUE(testing::file_bytes(whole / "final_state.csv") ==
               testing::file_bytes(half / "final_state.csv"));
