@@ -27,7 +27,8 @@
 # this virtual machine the host moves its two vCPUs between cores that share a level-3 cache
 # (about 30 ns) and cores on different dies (about 170 ns) every few seconds to minutes; bondem's
 # two threads, which share cache lines, run about 1.35 times as long on different dies, while the
-# peers' MPI ranks and two independent runs do not notice. The rounds table reports bondem's two cores over one for each placement apart.
+# peers' MPI ranks and two independent runs do not notice. The rounds table reports each code's
+# two cores over one for each placement apart.
 #
 # Needs `lmp`, `liggghts`, `mpirun` and GNU time (apt-get install --no-install-recommends lammps
 # liggghts time: without --no-install-recommends apt also pulls python3-paraview, which removes

@@ -43,16 +43,15 @@ double one_way_ns(int cpu_a, int cpu_b, std::uint64_t handoffs) {
     std::fprintf(stderr, "bench_core_latency: cannot run on CPU %d\n", cpu_a);
     std::exit(2);
   }
-  static Line line;
-  line.counter.store(0);
+  Line line;
   const std::uint64_t total = 2 * handoffs;
   std::atomic<bool> pinned_b{true};
-  std::thread partner([&line_ref = line, &pinned_b, cpu_b, total] {
+  std::thread partner([&line, &pinned_b, cpu_b, total] {
     pinned_b = pin_to(cpu_b);
     for (std::uint64_t k = 0; k < total; ++k) {
-      while (line_ref.counter.load(std::memory_order_acquire) != 2 * k + 1) {
+      while (line.counter.load(std::memory_order_acquire) != 2 * k + 1) {
       }
-      line_ref.counter.store(2 * k + 2, std::memory_order_release);
+      line.counter.store(2 * k + 2, std::memory_order_release);
     }
   });
   std::chrono::steady_clock::time_point start;

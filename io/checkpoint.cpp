@@ -635,21 +635,23 @@ void put_payload(Writer& payload, const CheckpointView& checkpoint, std::uint64_
   for (const StaggeredVector<double>* axis : checkpoint.build_positions) put_column(*axis, 1);
   payload.put(static_cast<std::int32_t>(p.walls));
   put_section(CheckpointSection::kWall);
-  // Field by field: the struct's padding bytes are not part of the state.
-  const bool slip_history = p.contact_history;
-  payload.put(static_cast<std::uint8_t>(slip_history ? 1 : 0));
+  // Whether the run has contact history, ahead of the pairs, whose records carry it only then,
+  // and of its particle fields below. Field by field: the struct's padding bytes are not part of
+  // the state.
+  const bool history = p.contact_history;
+  payload.put(static_cast<std::uint8_t>(history ? 1 : 0));
   payload.put(slips);
   std::uint64_t visited = 0;
   if (!payload.streams()) {
     // counted: the pairs are walked in the writing pass
-    payload.skip(slips * slip_bytes(slip_history));
+    payload.skip(slips * slip_bytes(history));
   } else {
     checkpoint.for_each_slip([&](const SlipRecord& slip) {
       payload.put(slip.first_id);
       payload.put(slip.second_id);
       for (const double v : {slip.sx, slip.sy, slip.sz}) payload.put(v);
       payload.put(slip.bonded);
-      if (slip_history) {
+      if (history) {
         for (const double v : {slip.rx, slip.ry, slip.rz}) payload.put(v);
         payload.put(slip.joined);
       }
@@ -676,8 +678,7 @@ void put_payload(Writer& payload, const CheckpointView& checkpoint, std::uint64_
   // Thermal arrays, one value per particle, only in thermal runs.
   payload.put(static_cast<std::uint8_t>(p.thermal() ? 1 : 0));
   if (p.thermal()) put_section(CheckpointSection::kThermal);
-  payload.put(static_cast<std::uint8_t>(p.contact_history ? 1 : 0));
-  if (p.contact_history) put_section(CheckpointSection::kContactHistory);
+  if (history) put_section(CheckpointSection::kContactHistory);
   payload.put(static_cast<std::uint8_t>(p.displacement_tracked ? 1 : 0));
   if (p.displacement_tracked) put_section(CheckpointSection::kDisplacement);
   payload.put(static_cast<std::uint8_t>(p.mesh_contacts ? 1 : 0));
@@ -933,22 +934,23 @@ Checkpoint read_checkpoint(const std::string& path, const CheckpointScope& scope
   if (p.walls < 0) r.fail("negative wall count");
   if (p.walls > INT32_MAX / Particles::kWallContactValues) r.fail("implausible wall count");
   get_section(CheckpointSection::kWall);
-  const std::uint8_t slip_history = r.get<std::uint8_t>();
-  if (slip_history > 1) r.fail("invalid pair record layout");
+  const std::uint8_t history = r.get<std::uint8_t>();
+  if (history > 1) r.fail("invalid contact history flag");
+  p.contact_history = history != 0;
   const auto slip_count = r.get<std::uint64_t>();
-  const std::size_t slip_size = slip_bytes(slip_history != 0);
+  const std::size_t slip_size = slip_bytes(p.contact_history);
   r.check_room(slip_count, slip_size);
   // With rows kept, the pairs of a kept particle (the kept ids are in order: the file is by id).
   const auto kept = [&](std::int64_t id) {
     return std::binary_search(p.id.begin(), p.id.end(), id);
   };
   if (scope.pairs_streamed) {
-    s.slip_source = streamed_slips(in, in->tellg(), slip_count, slip_history != 0, path);
+    s.slip_source = streamed_slips(in, in->tellg(), slip_count, p.contact_history, path);
     r.skip(slip_count * slip_size);
   } else {
     if (scope.rows == nullptr) s.slips.reserve(slip_count);
     for (std::uint64_t k = 0; k < slip_count; ++k) {
-      const SlipRecord slip = read_slip(r, slip_history != 0);
+      const SlipRecord slip = read_slip(r, p.contact_history);
       if (scope.rows == nullptr || kept(slip.first_id) || kept(slip.second_id)) {
         s.slips.push_back(slip);
       }
@@ -974,7 +976,6 @@ Checkpoint read_checkpoint(const std::string& path, const CheckpointScope& scope
   s.removed.mass = r.get<double>();
   p.temperatures_tracked = r.get<std::uint8_t>() != 0;
   if (p.temperatures_tracked) get_section(CheckpointSection::kThermal);
-  p.contact_history = r.get<std::uint8_t>() != 0;
   if (p.contact_history) get_section(CheckpointSection::kContactHistory);
   p.displacement_tracked = r.get<std::uint8_t>() != 0;
   if (p.displacement_tracked) get_section(CheckpointSection::kDisplacement);

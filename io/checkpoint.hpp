@@ -26,7 +26,7 @@ class CheckpointError : public std::runtime_error {
 };
 
 /// Format version written into every checkpoint; readers refuse any other.
-inline constexpr std::uint32_t kCheckpointVersion = 9;
+inline constexpr std::uint32_t kCheckpointVersion = 10;
 
 /// Where a checkpointed particle field sits in the file: per-particle arrays right after the
 /// particle count, per-wall arrays after the wall count, thermal arrays after the thermal flag,
