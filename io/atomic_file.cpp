@@ -1,36 +1,158 @@
 #include "io/atomic_file.hpp"
 
+#include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
+#include <new>
 #include <stdexcept>
 #include <system_error>
 
 namespace bondem {
 
-AtomicFile::AtomicFile(std::string path, std::ios::openmode mode)
+namespace {
+
+/// Alignment of a direct write's memory, offset and length: the largest logical block in use.
+constexpr std::size_t kDirectBlock = 4096;
+
+/// Sets or clears O_DIRECT on @p descriptor; false if the file system refuses it.
+bool set_direct(int descriptor, bool on) {
+  const int flags = ::fcntl(descriptor, F_GETFL);
+  if (flags < 0) return false;
+  return ::fcntl(descriptor, F_SETFL, on ? (flags | O_DIRECT) : (flags & ~O_DIRECT)) == 0;
+}
+
+}  // namespace
+
+FileWriteBuffer::FileWriteBuffer(int descriptor) : descriptor_(descriptor) {
+  for (char*& buffer : buffers_) {
+    buffer = static_cast<char*>(std::aligned_alloc(kDirectBlock, kBufferBytes));
+    if (buffer == nullptr) {
+      ::close(descriptor_);
+      for (char* allocated : buffers_) std::free(allocated);
+      throw std::bad_alloc();
+    }
+  }
+  setp(buffers_[0], buffers_[0] + kBufferBytes);
+}
+
+FileWriteBuffer::~FileWriteBuffer() {
+  wait_for_writer();
+  if (descriptor_ >= 0) ::close(descriptor_);
+  for (char* buffer : buffers_) std::free(buffer);
+}
+
+bool FileWriteBuffer::write_at(char* data, std::size_t size, std::size_t offset) {
+  std::size_t length = size;
+  if (direct_) {
+    // A direct write takes whole blocks: the tail's padding is cut off by finish().
+    length = (size + kDirectBlock - 1) / kDirectBlock * kDirectBlock;
+    std::memset(data + size, 0, length - size);
+  }
+  std::size_t done = 0;
+  while (done < length) {
+    const ssize_t wrote =
+        ::pwrite(descriptor_, data + done, length - done, static_cast<off_t>(offset + done));
+    if (wrote < 0 && errno == EINTR) continue;
+    if (wrote < 0 && errno == EINVAL && direct_ && done == 0) {
+      // The file system took O_DIRECT at fcntl but refuses the write: write through the cache.
+      // Only the writing thread or, with it joined, finish() gets here.
+      if (!set_direct(descriptor_, false)) return false;
+      direct_ = false;
+      length = size;
+      continue;
+    }
+    if (wrote <= 0) return false;
+    done += static_cast<std::size_t>(wrote);
+  }
+  return true;
+}
+
+bool FileWriteBuffer::wait_for_writer() {
+  if (writer_.joinable()) writer_.join();
+  if (writer_failed_) failed_ = true;
+  return !failed_;
+}
+
+bool FileWriteBuffer::drain_full() {
+  if (!wait_for_writer()) return false;
+  // Only a file longer than one buffer goes direct: small files stay in the page cache, where
+  // a write costs no device round trip.
+  if (written_ == 0) direct_ = set_direct(descriptor_, true);
+  char* const full = buffers_[filling_];
+  const std::size_t offset = written_;
+  written_ += kBufferBytes;
+  writer_ = std::thread([this, full, offset] {
+    if (!write_at(full, kBufferBytes, offset)) writer_failed_ = true;
+  });
+  filling_ = 1 - filling_;
+  setp(buffers_[filling_], buffers_[filling_] + kBufferBytes);
+  return true;
+}
+
+FileWriteBuffer::int_type FileWriteBuffer::overflow(int_type c) {
+  if (pptr() == epptr() && !drain_full()) return traits_type::eof();
+  if (traits_type::eq_int_type(c, traits_type::eof())) return traits_type::not_eof(c);
+  *pptr() = traits_type::to_char_type(c);
+  pbump(1);
+  return c;
+}
+
+std::streamsize FileWriteBuffer::xsputn(const char* data, std::streamsize size) {
+  std::streamsize done = 0;
+  while (done < size) {
+    if (pptr() == epptr() && !drain_full()) break;
+    const std::streamsize room = std::min<std::streamsize>(size - done, epptr() - pptr());
+    std::memcpy(pptr(), data + done, static_cast<std::size_t>(room));
+    pbump(static_cast<int>(room));
+    done += room;
+  }
+  return done;
+}
+
+bool FileWriteBuffer::finish() {
+  if (descriptor_ < 0) return !failed_;
+  bool written = wait_for_writer();
+  const auto tail = static_cast<std::size_t>(pptr() - pbase());
+  if (written && tail > 0) {
+    written = write_at(pbase(), tail, written_);
+    written_ += tail;
+  }
+  // A padded direct tail left whole blocks: cut the file back to the bytes put.
+  if (written && direct_) written = ::ftruncate(descriptor_, static_cast<off_t>(written_)) == 0;
+  const bool closed = ::close(descriptor_) == 0;
+  descriptor_ = -1;
+  failed_ = !(written && closed);
+  return !failed_;
+}
+
+AtomicFile::AtomicFile(std::string path, std::ios::openmode /*mode*/)
     : path_(std::move(path)), temporary_(path_ + ".tmp." + std::to_string(::getpid())) {
   const std::filesystem::path parent = std::filesystem::path(path_).parent_path();
   std::error_code error;
   if (!parent.empty()) std::filesystem::create_directories(parent, error);
   if (error) throw std::runtime_error(path_ + ": cannot create directory: " + error.message());
-  stream_.open(temporary_, mode | std::ios::out | std::ios::trunc);
-  if (!stream_) throw std::runtime_error(path_ + ": cannot open for writing");
+  const int descriptor = ::open(temporary_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  if (descriptor < 0) throw std::runtime_error(path_ + ": cannot open for writing");
+  buffer_ = std::make_unique<FileWriteBuffer>(descriptor);
+  stream_.rdbuf(buffer_.get());
   stream_.precision(17);
 }
 
 AtomicFile::~AtomicFile() {
   if (!committed_) {
-    stream_.close();
+    buffer_.reset();  // closes the temporary
     std::error_code ignored;
     std::filesystem::remove(temporary_, ignored);
   }
 }
 
 void AtomicFile::commit() {
-  stream_.flush();
-  const bool written = static_cast<bool>(stream_);
-  stream_.close();
+  const bool written = static_cast<bool>(stream_) && buffer_->finish();
   if (!written) throw std::runtime_error(path_ + ": write failed");
   std::error_code error;
   std::filesystem::rename(temporary_, path_, error);

@@ -2,10 +2,61 @@
 /// @file atomic_file.hpp
 /// Output files that appear whole or not at all: written to a temporary name, renamed on commit.
 
-#include <fstream>
+#include <array>
+#include <cstddef>
+#include <memory>
+#include <ostream>
+#include <streambuf>
 #include <string>
+#include <thread>
 
 namespace bondem {
+
+/// The write buffer of an AtomicFile, over an open file descriptor. A file that outgrows one
+/// buffer (a checkpoint or final state of many particles) is written past the page cache
+/// (`O_DIRECT`) where the file system allows it, in whole aligned buffers and a padded tail cut
+/// back to the file's length: page-cache pages are fresh memory, which a virtual machine's host
+/// backs slowly (the 423 MB of a 10^6-particle run's outputs took 0.55-0.72 s buffered against
+/// 0.27-0.38 s direct on the development VM). Each full buffer is written by a thread of its own
+/// while the caller fills the other one, so that formatting and the device overlap. Where direct
+/// writes are refused (tmpfs, some network file systems) it falls back to ordinary writes.
+/// Nothing reaches the file before a buffer fills or finish() runs: sync() writes nothing, so
+/// an AtomicFile's temporary holds whole buffers only until its commit.
+class FileWriteBuffer : public std::streambuf {
+ public:
+  /// Takes ownership of @p descriptor (open for writing, empty).
+  explicit FileWriteBuffer(int descriptor);
+  ~FileWriteBuffer() override;
+  FileWriteBuffer(const FileWriteBuffer&) = delete;
+  FileWriteBuffer& operator=(const FileWriteBuffer&) = delete;
+
+  /// Write what is buffered, cut the file to its length and close it. False if anything failed.
+  bool finish();
+
+  /// Bytes of a buffer: the unit of a direct write.
+  static constexpr std::size_t kBufferBytes = std::size_t{2} << 20;
+
+ protected:
+  int_type overflow(int_type c) override;
+  std::streamsize xsputn(const char* data, std::streamsize size) override;
+
+ private:
+  /// Hands the full buffer to a writing thread and continues in the other; false on an error.
+  bool drain_full();
+  /// Waits for the writing thread, if any; false if its write failed.
+  bool wait_for_writer();
+  /// Writes @p size bytes of @p data at @p offset, padded to whole blocks when direct.
+  bool write_at(char* data, std::size_t size, std::size_t offset);
+
+  int descriptor_;
+  bool direct_ = false;  ///< whether the descriptor has O_DIRECT set
+  bool failed_ = false;
+  std::size_t written_ = 0;  ///< bytes of the file handed to writes so far
+  std::array<char*, 2> buffers_{};
+  std::size_t filling_ = 0;  ///< index of the buffer being filled
+  std::thread writer_;
+  bool writer_failed_ = false;  ///< set by writer_, read after joining it
+};
 
 /// A file written under `<path>.tmp.<pid>` and renamed to `path` by commit(). If commit() is never
 /// reached (an error, an exception), the destructor removes the temporary: a failing run leaves no
@@ -13,20 +64,22 @@ namespace bondem {
 class AtomicFile {
  public:
   /// Open the temporary file; creates missing parent directories. Throws std::runtime_error.
+  /// @p mode is accepted for the callers' intent (text or binary), which POSIX does not tell apart.
   explicit AtomicFile(std::string path, std::ios::openmode mode = std::ios::out);
   ~AtomicFile();
   AtomicFile(const AtomicFile&) = delete;
   AtomicFile& operator=(const AtomicFile&) = delete;
 
   /// The stream to write to.
-  std::ofstream& stream() { return stream_; }
-  /// Flush, close and move into place. Throws std::runtime_error if writing failed.
+  std::ostream& stream() { return stream_; }
+  /// Write, close and move into place. Throws std::runtime_error if writing failed.
   void commit();
 
  private:
   std::string path_;
   std::string temporary_;
-  std::ofstream stream_;
+  std::unique_ptr<FileWriteBuffer> buffer_;
+  std::ostream stream_{nullptr};
   bool committed_ = false;
 };
 

@@ -608,7 +608,7 @@ void check_inputs(const Particles& p, const std::vector<PlaneWall>& walls,
 void write_collection(const std::string& path, const std::vector<double>& times,
                       const std::vector<std::string>& files) {
   AtomicFile out(path);
-  std::ofstream& s = out.stream();
+  std::ostream& s = out.stream();
   s << "<?xml version=\"1.0\"?>\n"
        "<VTKFile type=\"Collection\" version=\"0.1\">\n"
        "  <Collection>\n";
