@@ -1,11 +1,11 @@
 #include "io/atomic_file.hpp"
 
 #include <fcntl.h>
+#include <sys/mman.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
-#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <new>
@@ -26,16 +26,21 @@ bool set_direct(int descriptor, bool on) {
   return ::fcntl(descriptor, F_SETFL, on ? (flags | O_DIRECT) : (flags & ~O_DIRECT)) == 0;
 }
 
+/// A buffer of FileWriteBuffer::kBufferBytes, page-aligned: mapped, so that freeing it returns
+/// its pages at once (a heap block of this size may stay resident after it is freed).
+char* map_buffer() {
+  void* const memory = ::mmap(nullptr, FileWriteBuffer::kBufferBytes, PROT_READ | PROT_WRITE,
+                              MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+  return memory == MAP_FAILED ? nullptr : static_cast<char*>(memory);
+}
+
 }  // namespace
 
 FileWriteBuffer::FileWriteBuffer(int descriptor) : descriptor_(descriptor) {
-  for (char*& buffer : buffers_) {
-    buffer = static_cast<char*>(std::aligned_alloc(kDirectBlock, kBufferBytes));
-    if (buffer == nullptr) {
-      ::close(descriptor_);
-      for (char* allocated : buffers_) std::free(allocated);
-      throw std::bad_alloc();
-    }
+  buffers_[0] = map_buffer();
+  if (buffers_[0] == nullptr) {
+    ::close(descriptor_);
+    throw std::bad_alloc();
   }
   setp(buffers_[0], buffers_[0] + kBufferBytes);
 }
@@ -43,7 +48,9 @@ FileWriteBuffer::FileWriteBuffer(int descriptor) : descriptor_(descriptor) {
 FileWriteBuffer::~FileWriteBuffer() {
   wait_for_writer();
   if (descriptor_ >= 0) ::close(descriptor_);
-  for (char* buffer : buffers_) std::free(buffer);
+  for (char* buffer : buffers_) {
+    if (buffer != nullptr) ::munmap(buffer, kBufferBytes);
+  }
 }
 
 bool FileWriteBuffer::write_at(char* data, std::size_t size, std::size_t offset) {
@@ -80,6 +87,10 @@ bool FileWriteBuffer::wait_for_writer() {
 
 bool FileWriteBuffer::drain_full() {
   if (!wait_for_writer()) return false;
+  if (buffers_[1] == nullptr && (buffers_[1] = map_buffer()) == nullptr) {
+    failed_ = true;
+    return false;
+  }
   // Only a file longer than one buffer goes direct: small files stay in the page cache, where
   // a write costs no device round trip.
   if (written_ == 0) direct_ = set_direct(descriptor_, true);

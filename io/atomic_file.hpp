@@ -19,7 +19,9 @@ namespace bondem {
 /// backs slowly (the 423 MB of a 10^6-particle run's outputs took 0.55-0.72 s buffered against
 /// 0.27-0.38 s direct on the development VM). Each full buffer is written by a thread of its own
 /// while the caller fills the other one, so that formatting and the device overlap. Where direct
-/// writes are refused (tmpfs, some network file systems) it falls back to ordinary writes.
+/// writes are refused (tmpfs, some network file systems) it falls back to ordinary writes. The
+/// buffers are mapped for the file and unmapped after it (the second only once the first fills):
+/// at most 2 MiB of resident memory while a large file is written, none after.
 /// Nothing reaches the file before a buffer fills or finish() runs: sync() writes nothing, so
 /// an AtomicFile's temporary holds whole buffers only until its commit.
 class FileWriteBuffer : public std::streambuf {
@@ -34,7 +36,7 @@ class FileWriteBuffer : public std::streambuf {
   bool finish();
 
   /// Bytes of a buffer: the unit of a direct write.
-  static constexpr std::size_t kBufferBytes = std::size_t{2} << 20;
+  static constexpr std::size_t kBufferBytes = std::size_t{1} << 20;
 
  protected:
   int_type overflow(int_type c) override;
@@ -51,9 +53,9 @@ class FileWriteBuffer : public std::streambuf {
   int descriptor_;
   bool direct_ = false;  ///< whether the descriptor has O_DIRECT set
   bool failed_ = false;
-  std::size_t written_ = 0;  ///< bytes of the file handed to writes so far
-  std::array<char*, 2> buffers_{};
-  std::size_t filling_ = 0;  ///< index of the buffer being filled
+  std::size_t written_ = 0;         ///< bytes of the file handed to writes so far
+  std::array<char*, 2> buffers_{};  ///< the second mapped at the first drain
+  std::size_t filling_ = 0;         ///< index of the buffer being filled
   std::thread writer_;
   bool writer_failed_ = false;  ///< set by writer_, read after joining it
 };
