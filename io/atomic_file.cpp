@@ -21,9 +21,14 @@ constexpr std::size_t kDirectBlock = 4096;
 
 /// Sets or clears O_DIRECT on @p descriptor; false if the file system refuses it.
 bool set_direct(int descriptor, bool on) {
+#ifdef O_DIRECT  // Linux; elsewhere every write goes through the cache
   const int flags = ::fcntl(descriptor, F_GETFL);
   if (flags < 0) return false;
   return ::fcntl(descriptor, F_SETFL, on ? (flags | O_DIRECT) : (flags & ~O_DIRECT)) == 0;
+#else
+  static_cast<void>(descriptor);
+  return !on;
+#endif
 }
 
 /// A buffer of FileWriteBuffer::kBufferBytes, page-aligned: mapped, so that freeing it returns
@@ -133,8 +138,11 @@ bool FileWriteBuffer::finish() {
     written = write_at(pbase(), tail, written_);
     written_ += tail;
   }
-  // A padded direct tail left whole blocks: cut the file back to the bytes put.
+  // A padded direct tail left whole blocks: cut the file back to the bytes put. Then the open file
+  // is left as it came: a duplicate of its descriptor (LastGoodFile's) shares O_DIRECT, and reads
+  // through it would have to be aligned.
   if (written && direct_) written = ::ftruncate(descriptor_, static_cast<off_t>(written_)) == 0;
+  if (direct_ && !set_direct(descriptor_, false)) written = false;
   const bool closed = ::close(descriptor_) == 0;
   descriptor_ = -1;
   failed_ = !(written && closed);

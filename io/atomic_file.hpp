@@ -32,7 +32,8 @@ class FileWriteBuffer : public std::streambuf {
   FileWriteBuffer(const FileWriteBuffer&) = delete;
   FileWriteBuffer& operator=(const FileWriteBuffer&) = delete;
 
-  /// Write what is buffered, cut the file to its length and close it. False if anything failed.
+  /// Write what is buffered, cut the file to its length, clear O_DIRECT again and close the
+  /// descriptor. False if anything failed.
   bool finish();
 
   /// Bytes of a buffer: the unit of a direct write.
