@@ -22,8 +22,10 @@ std::string exact_text(double value);
 inline constexpr std::size_t kExactTextChars = 26;
 
 /// Writes exact_text(@p value) at @p out, which has room for kExactTextChars; returns the end.
-/// The same bytes as printf's "%.17g" (C++ defines std::to_chars with a precision by it), without
-/// its locale and format parsing: a third of the time, which counts in a final state of 10^6 rows.
+/// The same bytes as printf's "%.17g" (C++ defines std::to_chars with a precision by it). From
+/// 10^-11 to 10^17 the digits come from one exact 128-bit product and their layout is written
+/// directly, elsewhere from std::to_chars: the 10^7 values of a final state at 10^6 particles
+/// (half of them in that range) took 19.5 ns each against 50-51 ns through std::to_chars alone.
 char* write_exact_text(char* out, double value);
 
 /// One column of the history: its name, its unit, and how to read it from the run.
