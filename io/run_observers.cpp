@@ -176,7 +176,12 @@ LastGoodFile::LastGoodFile(std::string path, const Particles& particles, const H
   // The open descriptor keeps the file; its name is not needed any more.
   std::error_code ignored;
   std::filesystem::remove(scratch, ignored);
-  keep(particles);
+  try {
+    keep(particles);
+  } catch (...) {
+    ::close(scratch_);  // no destructor runs for an object whose constructor throws
+    throw;
+  }
 }
 
 LastGoodFile::~LastGoodFile() {

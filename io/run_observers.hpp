@@ -59,7 +59,8 @@ inline constexpr std::string_view kLastGoodScratch = ".bondem_last_good";
 /// that is unlinked as soon as it is opened (so nothing is left behind, even after a SIGKILL), and
 /// read back only on a blow-up. That saves 64 B a particle of resident memory for one write of as
 /// many bytes per history row but the last, through a FileWriteBuffer, past the page cache (at
-/// 10^6 particles the first write took 0.2-0.3 s into fresh page-cache pages, now about 0.05 s).
+/// 10^6 particles the first write and the first step took 0.25 s by their median into fresh
+/// page-cache pages, 0.15 s so).
 class LastGoodFile : public Observer {
  public:
   /// Throws std::runtime_error when the scratch file cannot be opened or written. @p scratch_tag

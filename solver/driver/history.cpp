@@ -42,8 +42,8 @@ bool seventeen_digits(double value, std::uint64_t& digits, int& exponent) {
   if (biased <= 985 || biased >= 1080) return false;
   const std::uint64_t mantissa = (bits & ((std::uint64_t{1} << 52) - 1)) | (std::uint64_t{1} << 52);
   const int binary_exponent = biased - 1075;  // |value| = mantissa * 2^binary_exponent
-  // floor(log10 2^(biased - 1023)) (log10 2 as 78913 / 2^18, exact over this range): |value| is
-  // at most one decade above it, which the loop below corrects.
+  // floor(log10 2^(biased - 1023)) (log10 2 as 78913 / 2^18, which gives the floor at every
+  // exponent of this range): |value| is at most one decade above it, which the loop corrects.
   exponent = ((biased - 1023) * 78913) >> 18;
   for (int attempt = 0; attempt < 3; ++attempt) {
     const int scale = 16 - exponent;  // |value| * 10^scale = mantissa * 5^scale * 2^(scale + e)
@@ -103,8 +103,8 @@ void write_eight_digits(char* out, std::uint32_t value) {
 }  // namespace
 
 char* write_exact_text(char* out, double value) {
-  // printf's "%.17g" of the 17 digits, as std::to_chars would write them, about three times as
-  // fast for the values a state holds; std::to_chars for the rest.
+  // printf's "%.17g" of the 17 digits, as std::to_chars would write them (a final state's values
+  // 2.6 times as fast on average); std::to_chars for the rest.
   std::uint64_t digits = 0;
   int exponent = 0;
   if (!seventeen_digits(value, digits, exponent)) {
