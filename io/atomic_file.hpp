@@ -19,7 +19,8 @@ namespace bondem {
 /// backs slowly (the 423 MB of a 10^6-particle run's outputs took 0.55-0.72 s buffered against
 /// 0.27-0.38 s direct on the development VM). Each full buffer is written by a thread of its own
 /// while the caller fills the other one, so that formatting and the device overlap. Where direct
-/// writes are refused (tmpfs, some network file systems) it falls back to ordinary writes. The
+/// writes are refused (some file systems; tmpfs before Linux 6.6) it falls back to ordinary
+/// writes. The
 /// buffers are mapped for the file and unmapped after it (the second only once the first fills):
 /// at most 2 MiB of resident memory while a large file is written, none after.
 /// Nothing reaches the file before a buffer fills or finish() runs: sync() writes nothing, so
