@@ -149,7 +149,7 @@ bool FileWriteBuffer::finish() {
   return !failed_;
 }
 
-AtomicFile::AtomicFile(std::string path, std::ios::openmode /*mode*/)
+AtomicFile::AtomicFile(std::string path)
     : path_(std::move(path)), temporary_(path_ + ".tmp." + std::to_string(::getpid())) {
   const std::filesystem::path parent = std::filesystem::path(path_).parent_path();
   std::error_code error;

@@ -68,8 +68,7 @@ class FileWriteBuffer : public std::streambuf {
 class AtomicFile {
  public:
   /// Open the temporary file; creates missing parent directories. Throws std::runtime_error.
-  /// @p mode is accepted for the callers' intent (text or binary), which POSIX does not tell apart.
-  explicit AtomicFile(std::string path, std::ios::openmode mode = std::ios::out);
+  explicit AtomicFile(std::string path);
   ~AtomicFile();
   AtomicFile(const AtomicFile&) = delete;
   AtomicFile& operator=(const AtomicFile&) = delete;

@@ -736,7 +736,7 @@ void write_checkpoint(const std::string& path, const CheckpointView& checkpoint)
   put_payload(counter, checkpoint, slips);
   std::optional<AtomicFile> opened;
   try {
-    opened.emplace(path, std::ios::binary);
+    opened.emplace(path);
   } catch (...) {
     // The other processes are in the streams: they are served before the error travels on.
     if (checkpoint.parts) serve_checkpoint(checkpoint);

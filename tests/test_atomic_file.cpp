@@ -6,13 +6,13 @@
 
 #include <cstdint>
 #include <filesystem>
-#include <fstream>
 #include <iterator>
 #include <ostream>
 #include <string>
 #include <vector>
 
 #include "io/atomic_file.hpp"
+#include "run_helpers.hpp"
 
 namespace bondem {
 namespace {
@@ -20,17 +20,9 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path scratch_directory(const std::string& name) {
-  const fs::path directory = fs::path(BONDEM_TEST_TMPDIR) / "atomic_file" / name;
-  fs::remove_all(directory);
+  const fs::path directory = testing::fresh_directory("atomic_file_" + name);
   fs::create_directories(directory);
   return directory;
-}
-
-std::string file_bytes(const fs::path& path) {
-  std::string bytes(fs::file_size(path), '\0');
-  std::ifstream in(path, std::ios::binary);
-  in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  return bytes;
 }
 
 /// @p size bytes that differ from block to block and from offset to offset, so that a block
@@ -67,14 +59,14 @@ void expect_written_whole(const fs::path& directory, std::size_t size) {
   fs::remove(path);
   const std::string bytes = pattern(size);
   {
-    AtomicFile file(path.string(), std::ios::binary);
+    AtomicFile file(path.string());
     put_in_pieces(file.stream(), bytes);
     EXPECT_FALSE(fs::exists(path)) << "visible before its commit";
     file.commit();
   }
   ASSERT_TRUE(fs::exists(path));
   EXPECT_EQ(fs::file_size(path), size);
-  EXPECT_TRUE(file_bytes(path) == bytes) << size << " bytes differ";
+  EXPECT_TRUE(testing::file_bytes(path) == bytes) << size << " bytes differ";
   // Nothing but the file: no temporary left beside it.
   EXPECT_EQ(std::distance(fs::directory_iterator(directory), fs::directory_iterator()), 1);
 }

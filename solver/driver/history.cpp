@@ -57,8 +57,7 @@ bool seventeen_digits(double value, std::uint64_t& digits, int& exponent) {
       if (shift > 8) return false;  // never in range: |value| < 10^17 < 2^57
       quotient = product << shift;  // an integer: nothing to round
     } else {
-      const int right = -shift;
-      if (right >= 127) return false;
+      const int right = -shift;  // at most 89: scale >= 0, binary_exponent >= 986 - 1075
       quotient = product >> right;
       const Uint128 remainder = product - (quotient << right);
       const Uint128 half = static_cast<Uint128>(1) << (right - 1);
