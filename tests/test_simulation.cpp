@@ -349,10 +349,10 @@ TEST(History, ExactTextIsPrintfsSeventeenDigits) {
 TEST(History, ExactTextIsPrintfsSeventeenDigitsWhereStatesLie) {
   // The magnitudes of positions, velocities, radii and energies (10^-11 to 10^17) take a faster
   // path than std::to_chars, its own rounding and layout: checked against printf on random
-  // mantissas over that whole range, on exact ties of the 18th digit (odd multiples of 2^-(k+1)
-  // whose 18th significant digit is a 5 followed by zeros: ties to even), at the powers of ten
-  // and their neighbours (where the exponent estimate is one off, or rounding carries into an
-  // eighteenth digit, such as 9.99999999999999999e16 becoming 1e17), both signs.
+  // mantissas over that whole range, on exact ties of the 18th digit at every decimal scale
+  // (ties to even), at the powers of ten and their neighbours (where the exponent estimate is one
+  // off, or rounding carries into an eighteenth digit, such as 9.99999999999999999e16 becoming
+  // 1e17), both signs.
   std::vector<double> values;
   std::uint64_t state = 0x2545F4914F6CDD1DULL;
   const auto next = [&state] {
@@ -365,14 +365,20 @@ TEST(History, ExactTextIsPrintfsSeventeenDigitsWhereStatesLie) {
       values.push_back(std::ldexp(static_cast<double>(mantissa), binary_exponent - 52));
     }
   }
-  for (int scale = 0; scale <= 27; ++scale) {
-    // value * 10^scale = m * 5^scale * 2^(scale - shift): a tie when the bits below the
-    // quotient are exactly one half.
-    for (int shift = scale + 1; shift <= scale + 60; ++shift) {
-      for (int k = 0; k < 20; ++k) {
-        const std::uint64_t odd = (next() >> 11) | 1;
-        values.push_back(std::ldexp(static_cast<double>(odd), -shift));
-      }
+  std::uint64_t power_of_five = 1;
+  for (int scale = 0; scale <= 27; ++scale, power_of_five *= 5) {
+    // value = odd / 2^(scale + 1) with odd * 5^scale in [2 10^16, 2 10^17): value * 10^scale =
+    // odd * 5^scale / 2 has 17 digits before the point and exactly .5 after it, a tie.
+    const std::uint64_t lowest = (20'000'000'000'000'000ULL + power_of_five - 1) / power_of_five;
+    const std::uint64_t end = std::min<std::uint64_t>(
+        (200'000'000'000'000'000ULL + power_of_five - 1) / power_of_five,
+        std::uint64_t{1} << 53);  // odd * 5^scale < 2 10^17, odd exact in a double
+    const std::uint64_t first_odd = lowest | 1;
+    if (first_odd >= end) continue;
+    const std::uint64_t odds = (end - first_odd + 1) / 2;
+    for (int k = 0; k < 400; ++k) {
+      const std::uint64_t odd = first_odd + 2 * (next() % odds);
+      values.push_back(std::ldexp(static_cast<double>(odd), -(scale + 1)));
     }
   }
   for (int power = -12; power <= 17; ++power) {

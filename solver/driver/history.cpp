@@ -125,11 +125,10 @@ char* write_exact_text(char* out, double value) {
       *out++ = '.';
       out = std::copy(text + 1, text + last + 1, out);
     }
-    const int magnitude = -exponent;
+    const int magnitude = -exponent;  // 5 to 11: seventeen_digits stops at 10^-11
     *out++ = 'e';
     *out++ = '-';
-    if (magnitude >= 100) *out++ = static_cast<char>('0' + magnitude / 100);
-    *out++ = static_cast<char>('0' + magnitude / 10 % 10);
+    *out++ = static_cast<char>('0' + magnitude / 10);
     *out++ = static_cast<char>('0' + magnitude % 10);
     return out;
   }
