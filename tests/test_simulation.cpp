@@ -347,19 +347,20 @@ TEST(History, ExactTextIsPrintfsSeventeenDigits) {
 }
 
 TEST(History, ExactTextIsPrintfsSeventeenDigitsWhereStatesLie) {
-  // The magnitudes of positions, velocities, radii and energies (10^-11 to 10^17) take a faster
-  // path than std::to_chars, its own rounding and layout: checked against printf on random
-  // mantissas over that whole range, on exact ties of the 18th digit at every decimal scale
-  // (ties to even), at the powers of ten and their neighbours (where the exponent estimate is one
-  // off, or rounding carries into an eighteenth digit, such as 9.99999999999999999e16 becoming
-  // 1e17), both signs.
+  // The magnitudes of positions, velocities, spins, radii and energies (10^-39 to 10^17) take a
+  // faster path than std::to_chars, its own rounding and layout (128-bit products above 10^-11,
+  // 192-bit ones below): checked against printf on random mantissas over that whole range and
+  // past both ends, on exact ties of the 18th digit at every decimal scale that has them (ties to
+  // even; below 10^-8 no double is a tie), at the powers of ten and their neighbours (where the
+  // exponent estimate is one off, or rounding carries into an eighteenth digit, such as
+  // 9.99999999999999999e16 becoming 1e17), both signs.
   std::vector<double> values;
   std::uint64_t state = 0x2545F4914F6CDD1DULL;
   const auto next = [&state] {
     state = state * 6364136223846793005ULL + 1442695040888963407ULL;
     return state;
   };
-  for (int binary_exponent = -100; binary_exponent <= 60; ++binary_exponent) {
+  for (int binary_exponent = -140; binary_exponent <= 60; ++binary_exponent) {
     for (int k = 0; k < 2000; ++k) {
       const std::uint64_t mantissa = (next() >> 11) | (std::uint64_t{1} << 52);
       values.push_back(std::ldexp(static_cast<double>(mantissa), binary_exponent - 52));
@@ -381,7 +382,7 @@ TEST(History, ExactTextIsPrintfsSeventeenDigitsWhereStatesLie) {
       values.push_back(std::ldexp(static_cast<double>(odd), -(scale + 1)));
     }
   }
-  for (int power = -12; power <= 17; ++power) {
+  for (int power = -41; power <= 17; ++power) {
     const double ten = std::pow(10.0, power);
     double below = ten;
     double above = ten;

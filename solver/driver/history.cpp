@@ -31,37 +31,105 @@ constexpr std::array<std::uint64_t, 28> kPowersOfFive = [] {
 constexpr std::uint64_t kSeventeenDigitsLow = 10'000'000'000'000'000ULL;   // 10^16
 constexpr std::uint64_t kSeventeenDigitsEnd = 100'000'000'000'000'000ULL;  // 10^17
 
+/// 5^k for k = 28..55, the powers of five past 64 bits and within 128.
+constexpr std::size_t kFirstWidePower = kPowersOfFive.size();
+constexpr std::array<Uint128, 28> kWidePowersOfFive = [] {
+  std::array<Uint128, 28> powers{};
+  Uint128 power = static_cast<Uint128>(kPowersOfFive.back()) * 5;
+  for (Uint128& p : powers) {
+    p = power;
+    power *= 5;
+  }
+  return powers;
+}();
+
+/// An unsigned integer of 192 bits, least significant word first: a 53-bit mantissa times a
+/// power of five of up to 128 bits.
+struct Uint192 {
+  std::array<std::uint64_t, 3> words{};
+
+  /// @p mantissa times @p power, exactly.
+  static Uint192 product(std::uint64_t mantissa, Uint128 power) {
+    const Uint128 low = static_cast<Uint128>(static_cast<std::uint64_t>(power)) * mantissa;
+    const Uint128 high = static_cast<Uint128>(static_cast<std::uint64_t>(power >> 64)) * mantissa;
+    const Uint128 middle = (low >> 64) + static_cast<std::uint64_t>(high);
+    return {{static_cast<std::uint64_t>(low), static_cast<std::uint64_t>(middle),
+             static_cast<std::uint64_t>((middle >> 64) + (high >> 64))}};
+  }
+  /// Bit @p k (0 to 191).
+  bool bit(int k) const { return ((words[static_cast<std::size_t>(k / 64)] >> (k % 64)) & 1) != 0; }
+  /// Whether any of bits 0 to @p k - 1 is set.
+  bool any_below(int k) const {
+    for (int word = 0; word < 3; ++word) {
+      const int first = 64 * word;
+      if (k <= first) return false;
+      const std::uint64_t w = words[static_cast<std::size_t>(word)];
+      if ((k >= first + 64 ? w : w & ((std::uint64_t{1} << (k - first)) - 1)) != 0) return true;
+    }
+    return false;
+  }
+  /// The value shifted right by @p right (1 to 191) bits, as 128 bits (the caller's quotients
+  /// are below 2^64).
+  Uint128 shifted_right(int right) const {
+    const auto word = static_cast<std::size_t>(right / 64);
+    const int within = right % 64;
+    Uint128 result = 0;
+    for (std::size_t k = word; k < 3 && k < word + 3; ++k) {
+      const Uint128 w = words[k];
+      const int place = static_cast<int>(64 * (k - word)) - within;
+      result |= place >= 0 ? (place < 128 ? w << place : 0) : w >> -place;
+    }
+    return result;
+  }
+};
+
 /// The 17 significant digits of finite, non-zero |@p value| rounded as printf rounds them (to
 /// nearest, ties to even, from the exact binary value), as an integer in [10^16, 10^17), and the
-/// decimal exponent of the first; false outside 10^-11 <= |value| < 10^17, where the scaling
-/// below would leave 128 bits (std::to_chars formats those).
+/// decimal exponent of the first; false outside 10^-39 <= |value| < 10^17, where the scaling
+/// below would leave 192 bits (std::to_chars formats those).
 bool seventeen_digits(double value, std::uint64_t& digits, int& exponent) {
   const auto bits = std::bit_cast<std::uint64_t>(value);
   const int biased = static_cast<int>((bits >> 52) & 0x7ff);
-  // Zero, subnormals, infinities and NaN; below 2^-37 (< 10^-11) and from 2^57 (> 10^17) on.
-  if (biased <= 985 || biased >= 1080) return false;
+  // Zero, subnormals, infinities and NaN; below 2^-133 (< 10^-40) and from 2^57 (> 10^17) on.
+  if (biased <= 890 || biased >= 1080) return false;
   const std::uint64_t mantissa = (bits & ((std::uint64_t{1} << 52) - 1)) | (std::uint64_t{1} << 52);
   const int binary_exponent = biased - 1075;  // |value| = mantissa * 2^binary_exponent
-  // floor(log10 2^(biased - 1023)) (log10 2 as 78913 / 2^18, which gives the floor at every
-  // exponent of this range): |value| is at most one decade above it, which the loop corrects.
+  // floor(log10 2^(biased - 1023)) (log10 2 as 78913 / 2^18), or one more where the estimate's
+  // error (under 10^-4 in this range) lifts it past an integer: |value| is within a decade of
+  // 10^exponent, which the loop corrects.
   exponent = ((biased - 1023) * 78913) >> 18;
   for (int attempt = 0; attempt < 3; ++attempt) {
     const int scale = 16 - exponent;  // |value| * 10^scale = mantissa * 5^scale * 2^(scale + e)
-    if (scale < 0 || scale >= static_cast<int>(kPowersOfFive.size())) return false;
-    const Uint128 product =
-        static_cast<Uint128>(mantissa) * kPowersOfFive[static_cast<std::size_t>(scale)];
+    if (scale < 0 || scale >= static_cast<int>(kFirstWidePower + kWidePowersOfFive.size())) {
+      return false;
+    }
     const int shift = scale + binary_exponent;
     Uint128 quotient = 0;
     bool round_up = false;
-    if (shift >= 0) {
-      if (shift > 8) return false;  // never in range: |value| < 10^17 < 2^57
-      quotient = product << shift;  // an integer: nothing to round
+    if (scale < static_cast<int>(kFirstWidePower)) {
+      const Uint128 product =
+          static_cast<Uint128>(mantissa) * kPowersOfFive[static_cast<std::size_t>(scale)];
+      if (shift >= 0) {
+        if (shift > 8) return false;  // never in range: |value| < 10^17 < 2^57
+        quotient = product << shift;  // an integer: nothing to round
+      } else {
+        const int right = -shift;  // at most 89: scale <= 27 puts |value| above 2^-40
+        quotient = product >> right;
+        const Uint128 remainder = product - (quotient << right);
+        const Uint128 half = static_cast<Uint128>(1) << (right - 1);
+        round_up = remainder > half || (remainder == half && (quotient & 1) != 0);
+      }
     } else {
-      const int right = -shift;  // at most 89: scale >= 0, binary_exponent >= 986 - 1075
-      quotient = product >> right;
-      const Uint128 remainder = product - (quotient << right);
-      const Uint128 half = static_cast<Uint128>(1) << (right - 1);
-      round_up = remainder > half || (remainder == half && (quotient & 1) != 0);
+      // 10^-39 to 10^-11: scale 28 to 55, a product of up to 181 bits shifted right by about
+      // 60 to 125 bits to its 17 digits.
+      const Uint192 product = Uint192::product(
+          mantissa, kWidePowersOfFive[static_cast<std::size_t>(scale) - kFirstWidePower]);
+      const int right = -shift;
+      if (right < 1 || right > 191) return false;
+      quotient = product.shifted_right(right);
+      // Above half: the first bit dropped and another; exactly half: the first one alone.
+      const bool first_dropped = product.bit(right - 1);
+      round_up = first_dropped && (product.any_below(right - 1) || (quotient & 1) != 0);
     }
     if (quotient < kSeventeenDigitsLow) {
       --exponent;
@@ -125,7 +193,7 @@ char* write_exact_text(char* out, double value) {
       *out++ = '.';
       out = std::copy(text + 1, text + last + 1, out);
     }
-    const int magnitude = -exponent;  // 5 to 11: seventeen_digits stops at 10^-11
+    const int magnitude = -exponent;  // 5 to 39: seventeen_digits stops at 10^-39
     *out++ = 'e';
     *out++ = '-';
     *out++ = static_cast<char>('0' + magnitude / 10);
