@@ -49,14 +49,15 @@ std::string region_too_small(const Particles& p, const Box& region, std::size_t 
 double clipped_volume(const Eigen::Vector3d& centre, double r, const Box& region,
                       const Domain& domain) {
   const Eigen::Vector3d length = domain.length();
-  // Most spheres of a bed lie inside the region. Such a sphere's images a period away miss a
-  // region no wider than the period (the box test below skips them all), so its volume is its
-  // own clipped volume: the loop's one term, the same bytes.
+  // Most spheres of a bed lie inside the region. Such a sphere's images a period away then clear
+  // the region by a diameter, far beyond rounding, where it is a diameter narrower than the
+  // period (as a bed region within the walls is): the box test below skips them all, and its
+  // volume is its own clipped volume, the loop's one term, the same bytes.
   bool inside = true;
   for (int a = 0; a < 3; ++a) {
     inside = inside && centre[a] - r > region.min[a] && centre[a] + r < region.max[a] &&
              (!domain.periodic[static_cast<std::size_t>(a)] ||
-              region.max[a] - region.min[a] <= length[a]);
+              region.max[a] - region.min[a] + 2.0 * r <= length[a]);
   }
   if (inside) return sphere_box_volume(centre.x(), centre.y(), centre.z(), r, region);
   double volume = 0.0;

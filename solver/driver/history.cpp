@@ -74,7 +74,7 @@ struct Uint192 {
     const auto word = static_cast<std::size_t>(right / 64);
     const int within = right % 64;
     Uint128 result = 0;
-    for (std::size_t k = word; k < 3 && k < word + 3; ++k) {
+    for (std::size_t k = word; k < 3; ++k) {
       const Uint128 w = words[k];
       const int place = static_cast<int>(64 * (k - word)) - within;
       result |= place >= 0 ? (place < 128 ? w << place : 0) : w >> -place;
@@ -90,7 +90,7 @@ struct Uint192 {
 bool seventeen_digits(double value, std::uint64_t& digits, int& exponent) {
   const auto bits = std::bit_cast<std::uint64_t>(value);
   const int biased = static_cast<int>((bits >> 52) & 0x7ff);
-  // Zero, subnormals, infinities and NaN; below 2^-133 (< 10^-40) and from 2^57 (> 10^17) on.
+  // Zero, subnormals, infinities and NaN; below 2^-132 (2 10^-40) and from 2^57 (> 10^17) on.
   if (biased <= 890 || biased >= 1080) return false;
   const std::uint64_t mantissa = (bits & ((std::uint64_t{1} << 52) - 1)) | (std::uint64_t{1} << 52);
   const int binary_exponent = biased - 1075;  // |value| = mantissa * 2^binary_exponent

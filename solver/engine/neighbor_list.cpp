@@ -205,8 +205,8 @@ void NeighborList::search_row(const Particles& p, const Domain& domain,
   }
   // A cell with neighbours on every side (most cells of a bed or a lattice): its 27 cells by
   // their index offsets, none across a periodic face. The same pairs as the general search below
-  // (a row is sorted by id afterwards, so the order of the cells does not matter), in a third of
-  // its time: at 10^6 particles the first search took 0.17 s of the set-up.
+  // (a row is sorted by id afterwards, so the order of the cells does not matter), without its
+  // wrap tests per cell: the first search of a 10^6 lattice 0.165 -> 0.107 s.
   bool interior = true;
   for (int a = 0; a < 3; ++a) interior = interior && home[a] >= 1 && home[a] + 1 < cells_[a];
   if (interior) {
