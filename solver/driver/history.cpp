@@ -15,13 +15,13 @@ namespace bondem {
 
 namespace {
 
-__extension__ using Uint128 = unsigned __int128;  // GCC and Clang: exact 53 x 63-bit products
+__extension__ using Uint128 = unsigned __int128;  // GCC and Clang: exact 64 x 64-bit products
 
-/// 5^k for k = 0..27: the powers within 64 bits (times a 53-bit mantissa, within 128).
-constexpr std::array<std::uint64_t, 28> kPowersOfFive = [] {
-  std::array<std::uint64_t, 28> powers{};
-  std::uint64_t power = 1;
-  for (std::uint64_t& p : powers) {
+/// 5^k for k = 0..55: the powers within 128 bits (times a 53-bit mantissa, within 192).
+constexpr std::array<Uint128, 56> kPowersOfFive = [] {
+  std::array<Uint128, 56> powers{};
+  Uint128 power = 1;
+  for (Uint128& p : powers) {
     p = power;
     power *= 5;
   }
@@ -30,18 +30,6 @@ constexpr std::array<std::uint64_t, 28> kPowersOfFive = [] {
 
 constexpr std::uint64_t kSeventeenDigitsLow = 10'000'000'000'000'000ULL;   // 10^16
 constexpr std::uint64_t kSeventeenDigitsEnd = 100'000'000'000'000'000ULL;  // 10^17
-
-/// 5^k for k = 28..55, the powers of five past 64 bits and within 128.
-constexpr std::size_t kFirstWidePower = kPowersOfFive.size();
-constexpr std::array<Uint128, 28> kWidePowersOfFive = [] {
-  std::array<Uint128, 28> powers{};
-  Uint128 power = static_cast<Uint128>(kPowersOfFive.back()) * 5;
-  for (Uint128& p : powers) {
-    p = power;
-    power *= 5;
-  }
-  return powers;
-}();
 
 /// An unsigned integer of 192 bits, least significant word first: a 53-bit mantissa times a
 /// power of five of up to 128 bits.
@@ -68,7 +56,7 @@ struct Uint192 {
     }
     return false;
   }
-  /// The value shifted right by @p right (1 to 191) bits, as 128 bits (the caller's quotients
+  /// The value shifted right by @p right (0 to 191) bits, as 128 bits (the caller's quotients
   /// are below 2^64).
   Uint128 shifted_right(int right) const {
     const auto word = static_cast<std::size_t>(right / 64);
@@ -100,36 +88,22 @@ bool seventeen_digits(double value, std::uint64_t& digits, int& exponent) {
   exponent = ((biased - 1023) * 78913) >> 18;
   for (int attempt = 0; attempt < 3; ++attempt) {
     const int scale = 16 - exponent;  // |value| * 10^scale = mantissa * 5^scale * 2^(scale + e)
-    if (scale < 0 || scale >= static_cast<int>(kFirstWidePower + kWidePowersOfFive.size())) {
-      return false;
-    }
+    if (scale < 0 || scale >= static_cast<int>(kPowersOfFive.size())) return false;
+    const Uint192 product =
+        Uint192::product(mantissa, kPowersOfFive[static_cast<std::size_t>(scale)]);
     const int shift = scale + binary_exponent;
     Uint128 quotient = 0;
     bool round_up = false;
-    if (scale < static_cast<int>(kFirstWidePower)) {
-      const Uint128 product =
-          static_cast<Uint128>(mantissa) * kPowersOfFive[static_cast<std::size_t>(scale)];
-      if (shift >= 0) {
-        if (shift > 8) return false;  // never in range: |value| < 10^17 < 2^57
-        quotient = product << shift;  // an integer: nothing to round
-      } else {
-        const int right = -shift;  // at most 89: scale <= 27 puts |value| above 2^-40
-        quotient = product >> right;
-        const Uint128 remainder = product - (quotient << right);
-        const Uint128 half = static_cast<Uint128>(1) << (right - 1);
-        round_up = remainder > half || (remainder == half && (quotient & 1) != 0);
-      }
+    if (shift >= 0) {
+      if (shift > 8) return false;                   // never in range: |value| < 10^17 < 2^57
+      quotient = product.shifted_right(0) << shift;  // an integer (below 2^117): nothing to round
     } else {
-      // 10^-39 to 10^-11: scale 28 to 55, a product of up to 181 bits shifted right by about
-      // 60 to 125 bits to its 17 digits.
-      const Uint192 product = Uint192::product(
-          mantissa, kWidePowersOfFive[static_cast<std::size_t>(scale) - kFirstWidePower]);
+      // A product of up to 181 bits (scale 55, 10^-39) shifted right to its 17 digits.
       const int right = -shift;
-      if (right < 1 || right > 191) return false;
+      if (right > 191) return false;
       quotient = product.shifted_right(right);
-      // Above half: the first bit dropped and another; exactly half: the first one alone.
-      const bool first_dropped = product.bit(right - 1);
-      round_up = first_dropped && (product.any_below(right - 1) || (quotient & 1) != 0);
+      // Above half: the first bit dropped and another; exactly half (ties to even): that one alone.
+      round_up = product.bit(right - 1) && (product.any_below(right - 1) || (quotient & 1) != 0);
     }
     if (quotient < kSeventeenDigitsLow) {
       --exponent;

@@ -23,8 +23,8 @@ inline constexpr std::size_t kExactTextChars = 26;
 
 /// Writes exact_text(@p value) at @p out, which has room for kExactTextChars; returns the end.
 /// The same bytes as printf's "%.17g" (C++ defines std::to_chars with a precision by it). From
-/// 10^-39 to 10^17 the digits come from one exact product of 128 bits (192 below 10^-11) and
-/// their layout is written directly, elsewhere from std::to_chars. A final state's residual
+/// 10^-39 to 10^17 the digits come from one exact product (the mantissa times a power of five)
+/// and their layout is written directly, elsewhere from std::to_chars. A final state's residual
 /// velocities and spins lie below 10^-11 (four values in ten on the settled 998 400 lattice).
 char* write_exact_text(char* out, double value);
 
