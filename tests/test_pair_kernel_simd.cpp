@@ -327,9 +327,9 @@ TEST(PairKernelSimd, RecordsWrittenByTheSweepMatchRecordsCopiedByThePass) {
 }
 
 // Out of cache pass 2 sums each particle's pair forces in one loop and its pair torques in a
-// second (gather_pair_part_into) where below kSplitPairSumsParticles one loop sums both: every
-// component must come out the same bits, with rolling torques and without, on pair slots that the
-// lanes filled for a packing with gaps, bonds, sliding and spinning spheres.
+// second (PairSums::kForce, then kTorque) where below kSplitPairSumsParticles one loop sums both:
+// every component must come out the same bits, with rolling torques and without, on pair slots that
+// the lanes filled for a packing with gaps, bonds, sliding and spinning spheres.
 TEST(PairKernelSimd, PassTwoInTwoLoopsGivesTheSameBitsAsInOne) {
   Scene scene = jittered_packing();
   scene.gravity = Eigen::Vector3d(0.3, -2.0, -9.81);
@@ -349,15 +349,15 @@ TEST(PairKernelSimd, PassTwoInTwoLoopsGivesTheSameBitsAsInOne) {
     for (const auto& [first, end] : {std::pair<std::size_t, std::size_t>{0, 37}, {37, n}}) {
       if (rolling) {
         gather_pair_range_into<true, true>(one_loop, list, slots, scene.gravity, first, end);
-        gather_pair_part_into<PairPart::kTorque, true>(two_loops, list, slots, scene.gravity, first,
-                                                       end);
+        gather_pair_range_into<true, true, PairSums::kTorque>(two_loops, list, slots, scene.gravity,
+                                                              first, end);
       } else {
         gather_pair_range_into<true, false>(one_loop, list, slots, scene.gravity, first, end);
-        gather_pair_part_into<PairPart::kTorque, false>(two_loops, list, slots, scene.gravity,
-                                                        first, end);
+        gather_pair_range_into<true, false, PairSums::kTorque>(two_loops, list, slots,
+                                                               scene.gravity, first, end);
       }
-      gather_pair_part_into<PairPart::kForce, false>(two_loops, list, slots, scene.gravity, first,
-                                                     end);
+      gather_pair_range_into<true, false, PairSums::kForce>(two_loops, list, slots, scene.gravity,
+                                                            first, end);
     }
     SCOPED_TRACE(rolling ? "rolling" : "no rolling");
     for (auto member : {&Particles::fx, &Particles::fy, &Particles::fz, &Particles::tx,

@@ -566,25 +566,34 @@ struct ParticleLoad {
   double conductance = 0.0;  ///< sum of its conductances [W/K] (thermal runs)
 };
 
+/// Which of a particle's pair sums a loop of pass 2 makes: all of them, or its forces alone or
+/// its torques alone (two loops over the same particles, kSplitPairSumsParticles).
+enum class PairSums { kAll, kForce, kTorque };
+
 /// Adds particle i's pairs to @p load: its own row as stored, then the pairs in which it is the
 /// second member with force, heat and rolling torque reversed (the lever torque keeps its sign).
 /// The sums run in plain locals, one per component, in the same order as adding to @p load: a
 /// ParticleLoad held by reference stayed in memory, and every add waited for the store of the one
-/// before it (measured: the locals made the 20 800 peer lattice 1.10 times faster).
-template <bool kFriction, bool kRolling, bool kThermal>
+/// before it (measured: the locals made the 20 800 peer lattice 1.10 times faster). With @p kSums
+/// kForce or kTorque only those sums (each component's additions the same as with kAll).
+template <bool kFriction, bool kRolling, bool kThermal, PairSums kSums = PairSums::kAll>
 [[gnu::always_inline]] inline void gather_pairs(const Particles& p, const NeighborList& list,
                                                 const PairForces& pf, std::size_t i,
                                                 ParticleLoad& load) {
+  constexpr bool kForce = kSums != PairSums::kTorque;
+  constexpr bool kTorque = kFriction && kSums != PairSums::kForce;
   double fx = load.force.x(), fy = load.force.y(), fz = load.force.z();
   double tx = load.torque.x(), ty = load.torque.y(), tz = load.torque.z();
   double heat = load.heat, conductance = load.conductance;
-  const double radius = p.radius[i];
+  const double radius = kTorque ? p.radius[i] : 0.0;
   const auto add_pair = [&](std::uint32_t k, double sign) __attribute__((always_inline)) {
     // sign is +1 or -1: a multiplication by it is exact, so the sums equal += and -=.
-    fx += sign * pf.fx[k];
-    fy += sign * pf.fy[k];
-    fz += sign * pf.fz[k];
-    if constexpr (kFriction) {
+    if constexpr (kForce) {
+      fx += sign * pf.fx[k];
+      fy += sign * pf.fy[k];
+      fz += sign * pf.fz[k];
+    }
+    if constexpr (kTorque) {
       const Eigen::Vector3d torque = lever_torque(pair_lever(radius, pf.overlap[k]),
                                                   Eigen::Vector3d(pf.cx[k], pf.cy[k], pf.cz[k]));
       tx += torque.x();
@@ -627,9 +636,12 @@ void gather_pair_range(const Particles& p, const NeighborList& list, const PairF
 /// gather_pair_range straight into the particles' force (and, with kFriction, torque) arrays,
 /// for a block no boundary can touch in a run without heat: the same sums, without the block's
 /// loads in between (their stores and the copy out were a twentieth of the 20 800 peer lattice).
-template <bool kFriction, bool kRolling>
+/// With @p kSums kForce or kTorque only those arrays (gather_pairs).
+template <bool kFriction, bool kRolling, PairSums kSums = PairSums::kAll>
 void gather_pair_range_into(Particles& p, const NeighborList& list, const PairForces& pf,
                             const Eigen::Vector3d& gravity, std::size_t first, std::size_t end) {
+  constexpr bool kForce = kSums != PairSums::kTorque;
+  constexpr bool kTorque = kFriction && kSums != PairSums::kForce;
   // In locals: a store through the arrays could otherwise alias p's own members.
   double* __restrict force_x = p.fx.data();
   double* __restrict force_y = p.fy.data();
@@ -638,12 +650,17 @@ void gather_pair_range_into(Particles& p, const NeighborList& list, const PairFo
   double* __restrict torque_y = p.ty.data();
   double* __restrict torque_z = p.tz.data();
   for (std::size_t i = first; i < end; ++i) {
-    ParticleLoad load{p.mass[i] * gravity, Eigen::Vector3d::Zero()};
-    gather_pairs<kFriction, kRolling, false>(p, list, pf, i, load);
-    force_x[i] = load.force.x();
-    force_y[i] = load.force.y();
-    force_z[i] = load.force.z();
-    if constexpr (kFriction) {
+    // The torque loop reads no mass.
+    ParticleLoad load{
+        kForce ? Eigen::Vector3d(p.mass[i] * gravity) : Eigen::Vector3d(Eigen::Vector3d::Zero()),
+        Eigen::Vector3d::Zero()};
+    gather_pairs<kFriction, kRolling, false, kSums>(p, list, pf, i, load);
+    if constexpr (kForce) {
+      force_x[i] = load.force.x();
+      force_y[i] = load.force.y();
+      force_z[i] = load.force.z();
+    }
+    if constexpr (kTorque) {
       torque_x[i] = load.torque.x();
       torque_y[i] = load.torque.y();
       torque_z[i] = load.torque.z();
@@ -651,73 +668,15 @@ void gather_pair_range_into(Particles& p, const NeighborList& list, const PairFo
   }
 }
 
-/// Which of a particle's pair sums a loop of pass 2 makes: gather_pair_part_into.
-enum class PairPart { kForce, kTorque };
-
-/// gather_pair_range_into's force sums alone (kForce: gravity, then each pair's force) or its
-/// torque sums alone (kTorque: each pair's lever torque and, with kRolling, its rolling torque),
-/// every component added in the same order as there: the same bytes. Two such loops, one after
-/// the other, each read half the arrays that one loop reads at once (kSplitPairSumsParticles).
-template <PairPart kPart, bool kRolling>
-void gather_pair_part_into(Particles& p, const NeighborList& list, const PairForces& pf,
-                           const Eigen::Vector3d& gravity, std::size_t first, std::size_t end) {
-  if constexpr (kPart == PairPart::kForce) {
-    // In locals: a store through the arrays could otherwise alias p's own members.
-    double* __restrict force_x = p.fx.data();
-    double* __restrict force_y = p.fy.data();
-    double* __restrict force_z = p.fz.data();
-    for (std::size_t i = first; i < end; ++i) {
-      const Eigen::Vector3d weight = p.mass[i] * gravity;
-      double fx = weight.x(), fy = weight.y(), fz = weight.z();
-      const auto add = [&](std::uint32_t k, double sign) __attribute__((always_inline)) {
-        fx += sign * pf.fx[k];
-        fy += sign * pf.fy[k];
-        fz += sign * pf.fz[k];
-      };
-      list.for_each_pair_of(
-          i, [&](std::uint32_t k) __attribute__((always_inline)) { add(k, 1.0); },
-          [&](std::uint32_t k) __attribute__((always_inline)) { add(k, -1.0); });
-      force_x[i] = fx;
-      force_y[i] = fy;
-      force_z[i] = fz;
-    }
-  } else {
-    double* __restrict torque_x = p.tx.data();
-    double* __restrict torque_y = p.ty.data();
-    double* __restrict torque_z = p.tz.data();
-    for (std::size_t i = first; i < end; ++i) {
-      const double radius = p.radius[i];
-      double tx = 0.0, ty = 0.0, tz = 0.0;
-      const auto add = [&](std::uint32_t k, double sign) __attribute__((always_inline)) {
-        const Eigen::Vector3d torque = lever_torque(pair_lever(radius, pf.overlap[k]),
-                                                    Eigen::Vector3d(pf.cx[k], pf.cy[k], pf.cz[k]));
-        tx += torque.x();
-        ty += torque.y();
-        tz += torque.z();
-        if constexpr (kRolling) {
-          tx += sign * pf.roll_x[k];
-          ty += sign * pf.roll_y[k];
-          tz += sign * pf.roll_z[k];
-        }
-      };
-      list.for_each_pair_of(
-          i, [&](std::uint32_t k) __attribute__((always_inline)) { add(k, 1.0); },
-          [&](std::uint32_t k) __attribute__((always_inline)) { add(k, -1.0); });
-      torque_x[i] = tx;
-      torque_y[i] = ty;
-      torque_z[i] = tz;
-    }
-  }
-}
-
 /// Particles from which pass 2 (with friction, without heat) sums each run of
-/// kSplitPairSumsBlocks blocks in two loops, forces then torques (gather_pair_part_into), instead
-/// of one. Out of cache every array a loop reads is a stream from memory, and beyond about 16 at
-/// once this core's memory gives less: a test program reading 1 GiB as 16 streams took 26-32
-/// GB/s, as 24 to 48 streams 16-21 GB/s. One loop reads 16 streams here (seven slot arrays, the
-/// three indices, radius, mass, and writes six), each of the two about ten. Measured, 50 steps
-/// of the 998 400 lattice, one thread, perf samples: pass 2 1 806-1 864 -> 1 613-1 687. In cache
-/// the two loops cost more than one (the 20 800 lattice: 2 081 -> 2 144-2 181).
+/// kSplitPairSumsBlocks blocks in two loops, forces then torques (gather_pair_range_into with
+/// PairSums::kForce, then kTorque), instead of one. Out of cache every array a loop reads is a
+/// stream from memory, and beyond about 16 at once this core's memory gives less: a test program
+/// reading 1 GiB as 16 streams took 26-32 GB/s, as 24 to 48 streams 16-21 GB/s. One loop reads 16
+/// streams here (seven slot arrays, the three indices, radius, mass, and writes six), each of the
+/// two about ten. Measured, 50 steps of the 998 400 lattice, one thread, perf samples: pass 2 1
+/// 806-1 864 -> 1 613-1 687. In cache the two loops cost more than one (the 20 800 lattice: 2 081
+/// -> 2 144-2 181).
 inline constexpr std::size_t kSplitPairSumsParticles = 32768;
 /// Blocks of pass 2 per run of the two loops: the second loop finds the run's indices (about 80
 /// kB) in the level-2 cache.
@@ -919,11 +878,13 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
         const std::size_t run_end = std::min(end_block, run + kSplitPairSumsBlocks);
         const std::size_t first = run * kWallLoadBlock;
         const std::size_t end = std::min(n, run_end * kWallLoadBlock);
-        gather_pair_part_into<PairPart::kForce, false>(p, list, pair_forces, g, first, end);
+        gather_pair_range_into<true, false, PairSums::kForce>(p, list, pair_forces, g, first, end);
         if (rolling) {
-          gather_pair_part_into<PairPart::kTorque, true>(p, list, pair_forces, g, first, end);
+          gather_pair_range_into<true, true, PairSums::kTorque>(p, list, pair_forces, g, first,
+                                                                end);
         } else {
-          gather_pair_part_into<PairPart::kTorque, false>(p, list, pair_forces, g, first, end);
+          gather_pair_range_into<true, false, PairSums::kTorque>(p, list, pair_forces, g, first,
+                                                                 end);
         }
         for (std::size_t block = run; block < run_end; ++block) {
           const std::size_t block_begin = block * kWallLoadBlock;
