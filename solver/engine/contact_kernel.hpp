@@ -14,6 +14,7 @@
 
 #include <Eigen/Core>
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -678,6 +679,14 @@ void gather_pair_range_into(Particles& p, const NeighborList& list, const PairFo
 /// 806-1 864 -> 1 613-1 687. In cache the two loops cost more than one (the 20 800 lattice: 2 081
 /// -> 2 144-2 181).
 inline constexpr std::size_t kSplitPairSumsParticles = 32768;
+/// The particle count from which pass 2 takes the two loops: kSplitPairSumsParticles unless moved
+/// by set_split_pair_sums_from().
+inline std::atomic<std::size_t> split_pair_sums_from{kSplitPairSumsParticles};
+/// Sets the particle count from which pass 2 sums forces and torques in two loops and returns the
+/// previous one. For tests and benchmarks: both ways give the same bytes.
+inline std::size_t set_split_pair_sums_from(std::size_t particles) {
+  return split_pair_sums_from.exchange(particles, std::memory_order_relaxed);
+}
 /// Blocks of pass 2 per run of the two loops: the second loop finds the run's indices (about 80
 /// kB) in the level-2 cache.
 inline constexpr std::size_t kSplitPairSumsBlocks = 64;
@@ -846,7 +855,8 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
   const bool thermal = p.thermal();
   const bool rolling = kFriction && !pair_forces.roll_x.empty();
   const bool prefetch = n >= kPrefetchSlotsParticles;
-  const bool split_sums = kFriction && !thermal && n >= kSplitPairSumsParticles;
+  const bool split_sums =
+      kFriction && !thermal && n >= split_pair_sums_from.load(std::memory_order_relaxed);
   const auto share = [&](int share_index, std::size_t first_block, std::size_t end_block) {
     ContactSummary summary;
     // Without boundaries never written.
