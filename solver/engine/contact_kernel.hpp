@@ -855,8 +855,7 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
   const bool thermal = p.thermal();
   const bool rolling = kFriction && !pair_forces.roll_x.empty();
   const bool prefetch = n >= kPrefetchSlotsParticles;
-  const bool split_sums =
-      kFriction && !thermal && n >= split_pair_sums_from.load(std::memory_order_relaxed);
+  const bool split_sums = kFriction && n >= split_pair_sums_from.load(std::memory_order_relaxed);
   const auto share = [&](int share_index, std::size_t first_block, std::size_t end_block) {
     ContactSummary summary;
     // Without boundaries never written.
@@ -881,27 +880,44 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
       summary.max_overlap_fraction =
           std::max({summary.max_overlap_fraction, tally.max_fraction, uncounted.max_fraction});
     };
-    if (split_sums) {
-      // Each run's force sums, then its torque sums (kSplitPairSumsParticles), then the
-      // boundaries' contacts added to both, block by block as below: the same additions.
-      for (std::size_t run = first_block; run < end_block; run += kSplitPairSumsBlocks) {
-        const std::size_t run_end = std::min(end_block, run + kSplitPairSumsBlocks);
+    if (!thermal) {
+      // The pair sums straight into the force arrays, then each boundary's contacts added to
+      // them: the additions of the staged loads below in the same order, without the loads'
+      // stores and copy (the blocks the floor reaches on the 20 800 peer lattice). Block by
+      // block, or, with split_sums, run by run: a run's force sums, then its torque sums
+      // (kSplitPairSumsParticles), then its blocks' boundaries.
+      const std::size_t run_blocks = split_sums ? kSplitPairSumsBlocks : 1;
+      for (std::size_t run = first_block; run < end_block; run += run_blocks) {
+        const std::size_t run_end = std::min(end_block, run + run_blocks);
         const std::size_t first = run * kWallLoadBlock;
         const std::size_t end = std::min(n, run_end * kWallLoadBlock);
-        gather_pair_range_into<true, false, PairSums::kForce>(p, list, pair_forces, g, first, end);
-        if (rolling) {
-          gather_pair_range_into<true, true, PairSums::kTorque>(p, list, pair_forces, g, first,
-                                                                end);
+        if (split_sums) {
+          gather_pair_range_into<kFriction, false, PairSums::kForce>(p, list, pair_forces, g, first,
+                                                                     end);
+          if (rolling) {
+            gather_pair_range_into<kFriction, true, PairSums::kTorque>(p, list, pair_forces, g,
+                                                                       first, end);
+          } else {
+            gather_pair_range_into<kFriction, false, PairSums::kTorque>(p, list, pair_forces, g,
+                                                                        first, end);
+          }
         } else {
-          gather_pair_range_into<true, false, PairSums::kTorque>(p, list, pair_forces, g, first,
-                                                                 end);
+          if (prefetch && run_end < end_block) {
+            prefetch_column_slots<kFriction>(list, pair_forces, end,
+                                             std::min(n, end + kWallLoadBlock));
+          }
+          if (rolling) {
+            gather_pair_range_into<kFriction, true>(p, list, pair_forces, g, first, end);
+          } else {
+            gather_pair_range_into<kFriction, false>(p, list, pair_forces, g, first, end);
+          }
         }
         for (std::size_t block = run; block < run_end; ++block) {
           const std::size_t block_begin = block * kWallLoadBlock;
           const std::size_t block_end = std::min(n, block_begin + kWallLoadBlock);
           if (!boundary_within_reach(scene, candidates, block_begin, block_end)) continue;
           BoundaryTally tally;
-          BoundaryTally uncounted;
+          BoundaryTally uncounted;  // of particles another rank counts: only its maxima are kept
           add_boundaries(block_begin, block_end, nullptr, tally, uncounted);
           add_tallies(tally, uncounted);
         }
@@ -916,20 +932,6 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
       if (prefetch && block + 1 < end_block) {
         prefetch_column_slots<kFriction>(list, pair_forces, block_end,
                                          std::min(n, block_end + kWallLoadBlock));
-      }
-      if (!thermal) {
-        // The pair sums straight into the force arrays, then each boundary's contacts added to
-        // them: the additions of the staged loads below in the same order, without the loads'
-        // stores and copy (the blocks the floor reaches on the 20 800 peer lattice).
-        if (rolling) {
-          gather_pair_range_into<kFriction, true>(p, list, pair_forces, g, block_begin, block_end);
-        } else {
-          gather_pair_range_into<kFriction, false>(p, list, pair_forces, g, block_begin, block_end);
-        }
-        if (!boundary_within_reach(scene, candidates, block_begin, block_end)) continue;
-        add_boundaries(block_begin, block_end, nullptr, tally, uncounted);
-        add_tallies(tally, uncounted);
-        continue;
       }
       // A thermal run stages each block's loads: heat and conductance are summed beside the force
       // and torque, and the surroundings' exchange comes last.
