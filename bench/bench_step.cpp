@@ -59,24 +59,28 @@ void BM_Step_FloorMesh(benchmark::State& state) {
   floor_steps(state, bench::Floor::kMesh);
 }
 
-/// Two variants of the step that give the same bytes, paired step by step in one process:
-/// the host's drift (runs of one binary scatter by 15-20 % on the shared machine) moves both
-/// alike. Steps alternate between the variants (which goes first alternates too) and the
-/// counters give each one's median step time and the median of the paired ratios
-/// variant / reference (below 1: the variant is faster). @p use(bool variant) switches.
+/// Two variants of the step that give the same bytes, paired in one process: the host's drift
+/// (runs of one binary scatter by 15-20 % on the shared machine) moves both alike. Runs of
+/// @p unit steps alternate between the variants (which goes first alternates too) and the
+/// counters give each one's median time per step and the median of the paired ratios
+/// variant / reference (below 1: the variant is faster). @p use(Stepper&, bool variant, bool last)
+/// switches before each step, last for the unit's last step.
 template <class Use>
-void paired_steps(benchmark::State& state, Use&& use) {
+void paired_steps(benchmark::State& state, Use&& use, int unit = 1) {
   Scene scene = lattice_scene(static_cast<int>(state.range(0)), 13, true);
   Stepper stepper(scene);
   stepper.defer_closing_kicks(true);           // as run_steps
   for (int s = 0; s < 5; ++s) stepper.step();  // first touches, the splits' first moves
   std::vector<double> variant, reference, ratio;
   const auto timed_step = [&](bool is_variant) {
-    use(is_variant);
     const auto start = std::chrono::steady_clock::now();
-    stepper.step();
+    for (int s = 0; s < unit; ++s) {
+      use(stepper, is_variant, s + 1 == unit);
+      stepper.step();
+    }
     return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-        .count();
+               .count() /
+           unit;
   };
   for (auto _ : state) {
     const bool variant_first = variant.size() % 2 == 0;
@@ -86,7 +90,7 @@ void paired_steps(benchmark::State& state, Use&& use) {
     reference.push_back(variant_first ? second : first);
     ratio.push_back(variant.back() / reference.back());
   }
-  use(false);
+  use(stepper, false, true);
   const auto median = [](std::vector<double> v) {
     std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
     return v[v.size() / 2];
@@ -99,7 +103,7 @@ void paired_steps(benchmark::State& state, Use&& use) {
 /// Threads that take chunks from the back of slower threads' shares (ThreadSplit::run) against
 /// each thread alone on its share; meaningful with OMP_NUM_THREADS >= 2.
 void BM_Step_StealingPaired(benchmark::State& state) {
-  paired_steps(state, [](bool variant) { ThreadSplit::set_stealing(variant); });
+  paired_steps(state, [](Stepper&, bool variant, bool) { ThreadSplit::set_stealing(variant); });
   ThreadSplit::set_stealing(true);
 }
 
@@ -108,7 +112,7 @@ void BM_Step_StealingPaired(benchmark::State& state) {
 /// reference's pass frees them; whole runs of two builds are the fairer measure.
 void BM_Step_RecordsPaired(benchmark::State& state) {
   const std::size_t limit = set_kinematics_records_below(0);  // each step sets its own
-  paired_steps(state, [limit](bool variant) {
+  paired_steps(state, [limit](Stepper&, bool variant, bool) {
     set_kinematics_records_below(variant ? std::numeric_limits<std::size_t>::max() : limit);
   });  // ends on the reference: the default limit again
 }
@@ -117,10 +121,19 @@ void BM_Step_RecordsPaired(benchmark::State& state) {
 /// limit (reference): where streaming pays, and where it does not.
 void BM_Step_StreamPaired(benchmark::State& state) {
   const std::size_t limit = set_stream_pair_slots_from(0);  // each step sets its own
-  paired_steps(state, [limit](bool variant) {
+  paired_steps(state, [limit](Stepper&, bool variant, bool) {
     set_stream_pair_slots_from(variant ? 0 : std::numeric_limits<std::size_t>::max());
   });
   set_stream_pair_slots_from(limit);
+}
+
+/// Steps that take the next step's opening sweep as their pass 2 ends (Stepper::drift_ahead,
+/// variant) against steps that leave it to the next step (reference), as a run between outputs
+/// takes them: in runs of eight, all but the last drifting ahead.
+void BM_Step_DriftAheadPaired(benchmark::State& state) {
+  paired_steps(
+      state,
+      [](Stepper& stepper, bool variant, bool last) { stepper.drift_ahead(variant && !last); }, 8);
 }
 
 void BM_NeighborBuild(benchmark::State& state) {
@@ -157,5 +170,6 @@ BENCHMARK(BM_Step_StreamPaired)
     ->Arg(100)
     ->Arg(277)
     ->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Step_DriftAheadPaired)->Arg(40)->Arg(277)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_NeighborBuild)->Arg(10)->Arg(40)->Arg(277)->Unit(benchmark::kMillisecond);
 BENCHMARK_MAIN();

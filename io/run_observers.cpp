@@ -297,7 +297,7 @@ void VtkFrames::start(const Simulation& simulation) {
 }
 
 void VtkFrames::after_step(const Simulation& simulation) {
-  if (reads_state(simulation)) write(simulation.scene(), simulation.stepper());
+  if (reads_state(simulation, simulation.step())) write(simulation.scene(), simulation.stepper());
 }
 
 void VtkFrames::interrupted(const Simulation& simulation, const Interruption& why) {
@@ -365,7 +365,7 @@ CheckpointFile::CheckpointFile(std::string path, std::uint64_t fingerprint, std:
 
 void CheckpointFile::after_step(const Simulation& simulation) {
   // Not at the end: finish() writes that one, after the last step's other outputs.
-  if (reads_state(simulation)) write(simulation);
+  if (reads_state(simulation, simulation.step())) write(simulation);
 }
 
 void CheckpointFile::interrupted(const Simulation& simulation, const Interruption& why) {
@@ -454,7 +454,7 @@ void StateFiles::start(const Simulation& simulation) {
 }
 
 void StateFiles::after_step(const Simulation& simulation) {
-  if (reads_state(simulation)) write(simulation);
+  if (reads_state(simulation, simulation.step())) write(simulation);
 }
 
 void StateFiles::write(const Simulation& simulation) const {
@@ -489,7 +489,7 @@ void LayerFiles::resume(std::int64_t checkpoint_step) {
 }
 
 void LayerFiles::after_step(const Simulation& simulation) {
-  while (reads_state(simulation)) {
+  while (reads_state(simulation, simulation.step())) {
     const LayerSnapshot layer = measure_series_layer(series_, next_, simulation);
     ++next_;
     write_layer(layer.metrics, (directory_ / layer_file_name(layer.layer)).string());

@@ -73,8 +73,8 @@ class LastGoodFile : public Observer {
   LastGoodFile& operator=(const LastGoodFile&) = delete;
   void after_step(const Simulation& simulation) override;
   /// At the history's rows.
-  bool reads_state(const Simulation& simulation) const override {
-    return history_.reads_state(simulation);
+  bool reads_state(const Simulation& simulation, std::int64_t step) const override {
+    return history_.reads_state(simulation, step);
   }
   void interrupted(const Simulation& simulation, const Interruption& why) override;
 
@@ -117,8 +117,8 @@ class VtkFrames : public Observer {
   void start(const Simulation& simulation) override;
   void after_step(const Simulation& simulation) override;
   /// At its frames' steps.
-  bool reads_state(const Simulation& simulation) const override {
-    return every_or_last(simulation, every_);
+  bool reads_state(const Simulation& simulation, std::int64_t step) const override {
+    return every_or_last(simulation, step, every_);
   }
   void interrupted(const Simulation& simulation, const Interruption& why) override;
 
@@ -147,8 +147,8 @@ class StateFiles : public Observer {
   void start(const Simulation& simulation) override;
   void after_step(const Simulation& simulation) override;
   /// At its snapshots' steps.
-  bool reads_state(const Simulation& simulation) const override {
-    return simulation.step() % every_ == 0;
+  bool reads_state(const Simulation& /*simulation*/, std::int64_t step) const override {
+    return step % every_ == 0;
   }
 
  private:
@@ -189,9 +189,8 @@ class LayerFiles : public Observer {
   void resume(std::int64_t checkpoint_step);
   void after_step(const Simulation& simulation) override;
   /// At the steps of layers not measured yet.
-  bool reads_state(const Simulation& simulation) const override {
-    return next_ < series_.times.size() &&
-           layer_step(series_.times[next_], time_step_) <= simulation.step();
+  bool reads_state(const Simulation& /*simulation*/, std::int64_t step) const override {
+    return next_ < series_.times.size() && layer_step(series_.times[next_], time_step_) <= step;
   }
 
  private:
@@ -213,8 +212,8 @@ class CheckpointFile : public Observer {
                  const History& history);
   void after_step(const Simulation& simulation) override;
   /// At its checkpoints' steps (the last one is finish()'s).
-  bool reads_state(const Simulation& simulation) const override {
-    return simulation.step() % every_ == 0 && !simulation.at_end();
+  bool reads_state(const Simulation& simulation, std::int64_t step) const override {
+    return step % every_ == 0 && step != simulation.last_step();
   }
   void interrupted(const Simulation& simulation, const Interruption& why) override;
   void finish(const Simulation& simulation) override;
@@ -236,7 +235,9 @@ class EndOfRunFiles : public Observer {
  public:
   EndOfRunFiles(std::filesystem::path directory, const RunAnalysis& analysis);
   /// Never between steps: it writes at a stop request and at the end.
-  bool reads_state(const Simulation& /*simulation*/) const override { return false; }
+  bool reads_state(const Simulation& /*simulation*/, std::int64_t /*step*/) const override {
+    return false;
+  }
   void interrupted(const Simulation& simulation, const Interruption& why) override;
   void finish(const Simulation& simulation) override;
 

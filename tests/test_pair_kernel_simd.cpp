@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <initializer_list>
 #include <limits>
+#include <memory>
 #include <random>
 #include <string>
 #include <utility>
@@ -409,6 +410,64 @@ TEST(PairKernelSimd, StepsWithPassTwoInTwoLoopsMatchStepsWithOne) {
     for (int axis = 0; axis < 3; ++axis) {
       EXPECT_TRUE(testing::same_bits(split_load[axis], whole_load[axis]))
           << "wall " << wall << ", axis " << axis;
+    }
+  }
+}
+
+// Drifting ahead (Stepper::drift_ahead) takes each step's closing kicks and the next one's opening
+// kicks and drift as pass 2 completes each range of particles, and moves the boundaries after
+// pass 2 instead of before the next sweep. On the walled packing with a ceiling pressing down
+// and sliding, 30 steps so taken (then one settled), and 30 deferred ones (then settled), must
+// move every particle, both walls' loads and the ceiling the same bits as 31 settled steps; with
+// pass 2 in runs of blocks (each run drifted after its sums) and block by block.
+TEST(PairKernelSimd, StepsDriftedAheadMatchSettledSteps) {
+  struct Restore {
+    std::size_t from = set_split_pair_sums_from(0);
+    ~Restore() { set_split_pair_sums_from(from); }
+  } restore;
+  constexpr int kSteps = 31;
+  for (const std::size_t split_from : {std::size_t{0}, std::numeric_limits<std::size_t>::max()}) {
+    set_split_pair_sums_from(split_from);
+    enum class Way { kSettled, kDeferred, kDriftedAhead };
+    std::vector<Scene> scenes;
+    scenes.reserve(3);  // each stepper holds its scene
+    std::vector<std::unique_ptr<Stepper>> steppers;
+    int drifted_steps = 0;
+    for (const Way way : {Way::kSettled, Way::kDeferred, Way::kDriftedAhead}) {
+      Scene& scene = scenes.emplace_back(jittered_packing(17, true));
+      scene.max_overlap_fraction = 0.5;
+      scene.boundaries[1].motion.keys = {{0.0, Eigen::Vector3d(0.05, 0.0, -0.5), 0.0}};
+      Stepper& stepper = *steppers.emplace_back(std::make_unique<Stepper>(scene));
+      stepper.defer_closing_kicks(way != Way::kSettled);
+      for (int s = 0; s < kSteps; ++s) {
+        stepper.drift_ahead(way == Way::kDriftedAhead && s + 1 < kSteps);
+        stepper.step();
+        drifted_steps += stepper.drifted() ? 1 : 0;
+      }
+      stepper.settle();
+    }
+    EXPECT_EQ(drifted_steps, kSteps - 1);  // the drift ahead was taken
+    const Particles& settled = scenes[0].particles;
+    for (std::size_t way = 1; way < scenes.size(); ++way) {
+      const Particles& other = scenes[way].particles;
+      ASSERT_EQ(other.size(), settled.size());
+      for (std::size_t i = 0; i < settled.size(); ++i) {
+        ASSERT_TRUE(testing::same_motion(other, i, settled, i))
+            << "way " << way << ", particle " << i << ", pass 2 in two loops from " << split_from;
+      }
+      EXPECT_EQ(steppers[way]->contacts().wall_contacts, steppers[0]->contacts().wall_contacts);
+      for (std::size_t wall = 0; wall < 2; ++wall) {
+        const Eigen::Vector3d load = steppers[way]->boundary_loads()[wall].force;
+        const Eigen::Vector3d settled_load = steppers[0]->boundary_loads()[wall].force;
+        EXPECT_NE(settled_load.z(), 0.0) << "wall " << wall;  // both walls hold contacts
+        for (int axis = 0; axis < 3; ++axis) {
+          EXPECT_TRUE(testing::same_bits(load[axis], settled_load[axis]))
+              << "way " << way << ", wall " << wall << ", axis " << axis;
+          EXPECT_TRUE(testing::same_bits(scenes[way].boundaries[1].center[axis],
+                                         scenes[0].boundaries[1].center[axis]))
+              << "way " << way << ", ceiling, axis " << axis;
+        }
+      }
     }
   }
 }

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "geometry/boundary.hpp"
+#include "run_helpers.hpp"
 #include "scene_builders.hpp"
 #include "solver/driver/history.hpp"
 #include "solver/driver/simulation.hpp"
@@ -239,16 +240,21 @@ Case frictional_gas() {
 }
 
 /// Reads the state (positions, velocities, spins, as bytes) every @p every steps only, and
-/// notes whether the stepper's closing kicks were pending at each step it does not read.
+/// notes whether the stepper's closing kicks were pending, or the next step's drift taken, at
+/// each step it does not read.
 class SparseReader : public Observer {
  public:
   explicit SparseReader(std::int64_t every) : every_(every) {}
-  bool reads_state(const Simulation& s) const override { return s.step() % every_ == 0; }
+  bool reads_state(const Simulation& /*s*/, std::int64_t step) const override {
+    return step % every_ == 0;
+  }
   void after_step(const Simulation& s) override {
-    if (!reads_state(s)) {
+    if (!reads_state(s, s.step())) {
       pending_steps += s.stepper().closing_pending() ? 1 : 0;
+      drifted_steps += s.stepper().drifted() ? 1 : 0;
       return;
     }
+    EXPECT_FALSE(s.stepper().closing_pending() || s.stepper().drifted()) << "step " << s.step();
     const Particles& p = s.scene().particles;
     for (const auto* field : {&p.x, &p.y, &p.z, &p.vx, &p.vy, &p.vz, &p.wx, &p.wy, &p.wz}) {
       states.emplace_back(reinterpret_cast<const char*>(field->data()),
@@ -257,15 +263,17 @@ class SparseReader : public Observer {
   }
   std::vector<std::string> states;
   int pending_steps = 0;
+  int drifted_steps = 0;
 
  private:
   std::int64_t every_;
 };
 
-TEST(Simulation, DeferredClosingKicksGiveTheBytesOfSettledSteps) {
-  // Between steps no observer reads, the closing half-kicks wait for the next step's sweep
-  // (Stepper::defer_closing_kicks), which gives both kicks by the same operations: the states
-  // read must be the bytes of a run that settles every step (an observer reading every step).
+TEST(Simulation, StepsDriftedAheadGiveTheBytesOfSettledSteps) {
+  // At steps no observer reads, the closing half-kicks are given with the next step's opening
+  // ones and its drift as pass 2 ends (Stepper::defer_closing_kicks, Stepper::drift_ahead), by the
+  // same operations: the states read must be the bytes of a run that settles every step (an
+  // observer reading every step).
   constexpr std::int64_t kSteps = 60;
   Fixture sparse_run(kSteps, frictional_gas());
   Fixture settled_run(kSteps, frictional_gas());
@@ -275,8 +283,10 @@ TEST(Simulation, DeferredClosingKicksGiveTheBytesOfSettledSteps) {
   ASSERT_TRUE(sparse_run.simulation.run().finished);
   ASSERT_TRUE(settled_run.simulation.run().finished);
   ASSERT_GT(sparse_run.stepper.contacts().contacts, 0u);
-  EXPECT_EQ(sparse.pending_steps, kSteps - kSteps / 7 - 1);  // every step not read but the last
-  EXPECT_EQ(every_step.pending_steps, 0);
+  // Every step not read but the last drifts ahead; none is left merely deferred.
+  EXPECT_EQ(sparse.drifted_steps, kSteps - kSteps / 7 - 1);
+  EXPECT_EQ(sparse.pending_steps, 0);
+  EXPECT_EQ(every_step.pending_steps + every_step.drifted_steps, 0);
   ASSERT_EQ(sparse.states.size(), 9u * (kSteps / 7));
   for (std::size_t k = 0; k < sparse.states.size(); ++k) {
     // every_step read steps 1, 2, ...; sparse steps 7, 14, ...: the same field of step 7 (r + 1).
@@ -285,7 +295,7 @@ TEST(Simulation, DeferredClosingKicksGiveTheBytesOfSettledSteps) {
         << "field " << field << " at step " << 7 * (read + 1);
   }
   // The last step is always settled.
-  EXPECT_FALSE(sparse_run.stepper.closing_pending());
+  EXPECT_FALSE(sparse_run.stepper.closing_pending() || sparse_run.stepper.drifted());
   const Particles& a = sparse_run.scene.particles;
   const Particles& b = settled_run.scene.particles;
   EXPECT_EQ(std::memcmp(a.vx.data(), b.vx.data(), a.size() * sizeof(double)), 0);
@@ -293,8 +303,9 @@ TEST(Simulation, DeferredClosingKicksGiveTheBytesOfSettledSteps) {
 }
 
 TEST(Simulation, ABlowUpFoundByTheMergedSweepNamesTheStepItCloses) {
-  // A velocity that is not finite shows at the closing sweep of step 1. Deferred, the merged
-  // sweep of step 2 finds it: the error must still name step 1 and the same particle.
+  // A velocity that is not finite shows at the closing sweep of step 1. Drifted ahead, the merged
+  // sweep at the end of step 1's pass 2 finds it: the error must still name step 1 and the same
+  // particle.
   const auto blow_up = [](std::int64_t every) {
     Fixture f(5, frictional_gas());
     f.scene.particles.vy[3] = std::numeric_limits<double>::quiet_NaN();
@@ -312,6 +323,56 @@ TEST(Simulation, ABlowUpFoundByTheMergedSweepNamesTheStepItCloses) {
       << settled.blow_up->what();
   EXPECT_EQ(deferred.step, 1);
   EXPECT_EQ(settled.step, 1);
+}
+
+/// Reads nothing; raises the stop flag in after_step() at step @p at, as a signal handler might
+/// while the next step runs, and logs the steps it hears of.
+class StopRequester : public Observer {
+ public:
+  StopRequester(std::int64_t at, volatile std::sig_atomic_t& flag) : at_(at), flag_(flag) {}
+  bool reads_state(const Simulation& /*s*/, std::int64_t /*step*/) const override { return false; }
+  void after_step(const Simulation& s) override {
+    log.push_back("step " + std::to_string(s.step()));
+    if (s.step() != at_) return;
+    drifted_at_request = s.stepper().drifted();
+    flag_ = 1;
+  }
+  void interrupted(const Simulation& s, const Interruption& /*why*/) override {
+    log.push_back("interrupted " + std::to_string(s.step()));
+  }
+  std::vector<std::string> log;
+  bool drifted_at_request = false;
+
+ private:
+  std::int64_t at_;
+  volatile std::sig_atomic_t& flag_;
+};
+
+TEST(Simulation, AStopRequestDuringADriftAheadStopsAtTheStepItBegan) {
+  // A stop request that comes while the particles have drifted into the next step (after step
+  // 4, which nobody reads) waits for that step: the run takes step 5, settled, calls its
+  // after_step(), and stops there with the bytes of five settled steps.
+  constexpr std::int64_t kSteps = 20;
+  Fixture stopped(kSteps, frictional_gas()), settled(kSteps, frictional_gas());
+  volatile std::sig_atomic_t stop = 0;
+  stopped.simulation.stop_when(&stop);
+  StopRequester requester(4, stop);
+  stopped.simulation.attach(requester);
+  const RunEnd end = stopped.simulation.run();
+  EXPECT_TRUE(requester.drifted_at_request);
+  ASSERT_TRUE(end.stopped.has_value());
+  EXPECT_EQ(*end.stopped, StopReason::kStopRequested);
+  EXPECT_EQ(end.step, 5);
+  const std::vector<std::string> expected{"step 1", "step 2", "step 3",
+                                          "step 4", "step 5", "interrupted 5"};
+  EXPECT_EQ(requester.log, expected);
+  EXPECT_FALSE(stopped.stepper.closing_pending() || stopped.stepper.drifted());
+  for (int s = 0; s < 5; ++s) settled.stepper.step();
+  const Particles& a = stopped.scene.particles;
+  const Particles& b = settled.scene.particles;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_TRUE(testing::same_motion(a, i, b, i)) << "particle " << i;
+  }
 }
 
 TEST(History, ExactTextIsPrintfsSeventeenDigits) {

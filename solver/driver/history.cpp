@@ -311,7 +311,7 @@ void History::start(const Simulation& simulation) {
 }
 
 void History::after_step(const Simulation& simulation) {
-  if (reads_state(simulation)) record(simulation);
+  if (reads_state(simulation, simulation.step())) record(simulation);
 }
 
 namespace {

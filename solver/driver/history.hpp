@@ -105,8 +105,8 @@ class History : public Observer {
   void start(const Simulation& simulation) override;
   void after_step(const Simulation& simulation) override;
   /// At the steps it writes a row: every `every` steps and the last.
-  bool reads_state(const Simulation& simulation) const override {
-    return every_or_last(simulation, every_);
+  bool reads_state(const Simulation& simulation, std::int64_t step) const override {
+    return every_or_last(simulation, step, every_);
   }
 
  private:

@@ -23,7 +23,9 @@ class Progress : public Observer {
   void count_particles(std::size_t particles) { particles_ = static_cast<double>(particles); }
   void after_step(const Simulation& simulation) override;
   /// Never: it reads the step and the time only.
-  bool reads_state(const Simulation& /*simulation*/) const override { return false; }
+  bool reads_state(const Simulation& /*simulation*/, std::int64_t /*step*/) const override {
+    return false;
+  }
   /// Ends the line rewritten in place, so that what follows starts on its own line.
   void interrupted(const Simulation& simulation, const Interruption& why) override;
   void finish(const Simulation& simulation) override;

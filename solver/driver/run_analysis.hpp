@@ -91,7 +91,9 @@ class RunAnalysis : public Observer {
  public:
   explicit RunAnalysis(const Case& description) : description_(description) {}
   /// Never between steps: it reads at the end.
-  bool reads_state(const Simulation& /*simulation*/) const override { return false; }
+  bool reads_state(const Simulation& /*simulation*/, std::int64_t /*step*/) const override {
+    return false;
+  }
   void finish(const Simulation& simulation) override {
     figures_ = analyse_run(description_, simulation);
   }

@@ -41,30 +41,37 @@ RunEnd Simulation::run() {
     return std::chrono::duration<double>(Clock::now() - started).count();
   };
   // Steps whose end state no observer reads leave their closing half-kicks to the next step's
-  // sweep (Stepper::defer_closing_kicks): the same bytes, one sweep fewer. Every way out of the
-  // loop below sees a settled state.
+  // opening sweep (Stepper::defer_closing_kicks), which they take as their pass 2 ends
+  // (Stepper::drift_ahead): the same bytes, one sweep fewer, and the forces read from the caches.
+  // Every way out of the loop below sees a settled state, but a blow-up's.
   stepper_.defer_closing_kicks(true);
   struct Undefer {
     Stepper& stepper;
-    ~Undefer() { stepper.defer_closing_kicks(false); }
+    ~Undefer() {
+      stepper.defer_closing_kicks(false);
+      stepper.drift_ahead(false);
+    }
   } undefer{stepper_};
-  const auto state_read = [&] {
-    if (at_end() || (stop_flag_ != nullptr && *stop_flag_ != 0)) return true;
+  const auto state_read = [&](std::int64_t at) {
+    if (at == last_step_ || (stop_flag_ != nullptr && *stop_flag_ != 0)) return true;
     for (const Observer* observer : observers_) {
-      if (observer->reads_state(*this)) return true;
+      if (observer->reads_state(*this, at)) return true;
     }
     return false;
   };
   while (step() < last_step_) {
     try {
+      stepper_.drift_ahead(!state_read(step() + 1));
       stepper_.step();
-      if (state_read()) stepper_.settle();
+      // Drifted ahead, the state is the next step's: a stop request that came meanwhile waits
+      // for that step, which reads it.
+      if (!stepper_.drifted() && state_read(step())) stepper_.settle();
       for (Observer* observer : observers_) observer->after_step(*this);
     } catch (const BlowUpError& error) {
       end.loop_seconds = elapsed();
       return blown_up(error);
     }
-    if (stop_flag_ != nullptr && *stop_flag_ != 0 && !at_end()) {
+    if (stop_flag_ != nullptr && *stop_flag_ != 0 && !at_end() && !stepper_.drifted()) {
       end.loop_seconds = elapsed();
       try {
         stepper_.settle();  // the flag may have risen after state_read()

@@ -45,13 +45,16 @@ class Observer {
   virtual void start(const Simulation& /*simulation*/) {}
   /// After each step that completed without a blow-up.
   virtual void after_step(const Simulation& /*simulation*/) {}
-  /// Whether after_step() at the step just taken reads the particles or the stepper's state
-  /// (beyond step and time): only then does run() give the step's closing half-kicks before
-  /// calling it (Stepper::defer_closing_kicks); between others they merge with the next
-  /// step's opening ones. Observers that read at some steps only say which. One that reads
-  /// nothing at a step may hear its after_step() before the next step's sweep finds that it
-  /// left a value not finite (interrupted() then follows, naming that step).
-  virtual bool reads_state(const Simulation& /*simulation*/) const { return true; }
+  /// Whether after_step() at step @p step (the next one at the latest; asked before it is taken)
+  /// reads the particles or the stepper's state (beyond step and time): only then does run()
+  /// give the step's closing half-kicks before calling it (Stepper::defer_closing_kicks);
+  /// between others they merge with the next step's opening ones, taken as pass 2 of the step
+  /// ends (Stepper::drift_ahead). Observers that read at some steps only say which. One that
+  /// reads nothing at a step may hear its after_step() before the next step's sweep finds that
+  /// it left a value not finite (interrupted() then follows, naming that step).
+  virtual bool reads_state(const Simulation& /*simulation*/, std::int64_t /*step*/) const {
+    return true;
+  }
   /// The run ends before its last step, for @p why.
   virtual void interrupted(const Simulation& /*simulation*/, const Interruption& /*why*/) {}
   /// The last step is done (after its after_step()). The stepper's per-pair forces are released
@@ -110,10 +113,10 @@ class Simulation {
   const volatile std::sig_atomic_t* stop_flag_ = nullptr;
 };
 
-/// True when the step of @p simulation is a multiple of @p every or its last: the steps at which
+/// True when @p step is a multiple of @p every or the last of @p simulation: the steps at which
 /// an output "every N steps" writes (the end always included).
-inline bool every_or_last(const Simulation& simulation, std::int64_t every) {
-  return simulation.step() % every == 0 || simulation.at_end();
+inline bool every_or_last(const Simulation& simulation, std::int64_t step, std::int64_t every) {
+  return step % every == 0 || step == simulation.last_step();
 }
 
 }  // namespace bondem

@@ -92,7 +92,7 @@ Stepper::Stepper(Scene& scene, StepperState restored, CarriedPairs carried, Pair
 }
 
 template <bool kFriction, bool kModels, class Law>
-ContactSummary Stepper::evaluate_forces(const Law& law) {
+ContactSummary Stepper::evaluate_forces(const Law& law, bool ahead) {
   const BondingCriterion criterion{scene_.particles, pair_forces_.bonded,
                                    pair_flag_ ? &pair_flag_ : nullptr};
   const std::uint8_t* counted = counted_.empty() ? nullptr : counted_.data();
@@ -107,9 +107,46 @@ ContactSummary Stepper::evaluate_forces(const Law& law) {
   // The boundaries' frames at their poses of this step, into storage kept across steps.
   boundary_frames_.clear();
   for (const Boundary& boundary : scene_.boundaries) boundary_frames_.push_back(frame_of(boundary));
+  // A pair past the overlap limit ends the step with its closing kicks (complete_step): no
+  // drift ahead then. A boundary past it is found in pass 2 itself, and its step ends drifted.
+  drifted_ = ahead && pairs.max_overlap_fraction <= scene_.max_overlap_fraction;
+  std::optional<LoadedRange> drift_ahead;
+  SweepArrays arrays;
+  if (drifted_) {
+    const std::size_t n = scene_.particles.size();
+    arrays = sweep_arrays();
+    if (!lane_constants_.empty()) {
+      arrays.records = records_for_sweep(lane_scratch_, n);
+      arrays.record_count = n;
+    }
+    ahead_parts_.assign(static_cast<std::size_t>(std::max(threads_in_use(n), 1)), {});
+    drift_ahead.emplace(
+        [&](int share, std::size_t first, std::size_t end, const LoadArrays& loads) {
+          // Particle first at index 0, its force and torque from the buffer pass 2 just filled.
+          SweepArrays range = arrays.from(first);
+          range.fx = loads.fx;
+          range.fy = loads.fy;
+          range.fz = loads.fz;
+          range.tx = loads.tx;
+          range.ty = loads.ty;
+          range.tz = loads.tz;
+          const SweepResult part = closing_opening_sweep(range, scene_.time_step, 0, end - first);
+          SweepResult& all = ahead_parts_[static_cast<std::size_t>(share)].result;
+          all.largest_sq = std::max(all.largest_sq, part.largest_sq);
+          all.finite = all.finite && part.finite;
+        });
+  }
   const ContactSummary walls = gather_forces<kFriction, kModels>(
       scene_.particles, scene_, list_, boundary_candidates_, boundary_frames_, law, pair_forces_,
-      wall_loads_, step_split_, counted);
+      wall_loads_, step_split_, counted, drift_ahead ? &*drift_ahead : nullptr);
+  if (drifted_) {
+    ahead_sweep_ = SweepResult{};
+    for (const SharedSweepResult& part : ahead_parts_) {
+      ahead_sweep_.largest_sq = std::max(ahead_sweep_.largest_sq, part.result.largest_sq);
+      ahead_sweep_.finite = ahead_sweep_.finite && part.result.finite;
+    }
+    lane_scratch_.current = arrays.records != nullptr;
+  }
   pairs.wall_contacts = walls.wall_contacts;
   pairs.max_overlap = std::max(pairs.max_overlap, walls.max_overlap);
   pairs.max_overlap_fraction = std::max(pairs.max_overlap_fraction, walls.max_overlap_fraction);
@@ -117,7 +154,7 @@ ContactSummary Stepper::evaluate_forces(const Law& law) {
   return pairs;
 }
 
-void Stepper::compute_forces(double laser_time) {
+void Stepper::compute_forces(double laser_time, bool ahead) {
   // The per-pair forces are sized for the list here, the first time they are needed after a
   // build or release_pair_forces(): a restored stepper that is only read (a checkpoint, the end
   // of a decomposed run) never holds them (56 B a pair).
@@ -130,9 +167,11 @@ void Stepper::compute_forces(double laser_time) {
   const bool models = scene_.particles.contact_history;
   contacts_ = with_normal_law(scene_.normal_law, [&](const auto& law) {
     if (scene_.friction) {
-      return models ? evaluate_forces<true, true>(law) : evaluate_forces<true, false>(law);
+      return models ? evaluate_forces<true, true>(law, ahead)
+                    : evaluate_forces<true, false>(law, ahead);
     }
-    return models ? evaluate_forces<false, true>(law) : evaluate_forces<false, false>(law);
+    return models ? evaluate_forces<false, true>(law, ahead)
+                  : evaluate_forces<false, false>(law, ahead);
   });
   deposit_laser(laser_time);
 }
@@ -544,16 +583,24 @@ void Stepper::step() {
   // rebuild once that displacement exceeds half the skin.
   const double half_skin = 0.5 * scene_.skin;
   // Nothing touches the particles between this drift and the forces but a rebuild (which
-  // clears the records), so the sweep may write the pair pass's records.
-  complete_step(drift(scene_.time_step, true) > half_skin * half_skin);
+  // clears the records), so the sweep may write the pair pass's records. The last step may
+  // have taken this drift already (drift_ahead()).
+  const double moved_sq = drifted_ ? ahead_sweep_.largest_sq : drift(scene_.time_step, true);
+  drifted_ = false;
+  complete_step(moved_sq > half_skin * half_skin, drift_ahead_);
 }
 
 double Stepper::move() {
+  if (drifted_) throw std::logic_error("Stepper::move: drifted ahead; only step() continues");
   // A decomposed run refreshes its ghosts between move() and complete_step(): no records.
   return drift(scene_.time_step, false);
 }
 
 void Stepper::complete_step(bool rebuild) {
+  complete_step(rebuild, false);
+}
+
+void Stepper::complete_step(bool rebuild, bool ahead) {
   const double dt = scene_.time_step;
   const bool inserted = insert_here_ && !scene_.streams.empty() &&
                         insert_from_streams(scene_.particles, time_ + dt) > 0;
@@ -564,16 +611,24 @@ void Stepper::complete_step(bool rebuild) {
   }
   // The laser deposits at mid-step, so a beam on for T seconds delivers its power for T seconds
   // to within one step.
-  compute_forces(time_ + 0.5 * dt);
+  // Drifting ahead merges this step's closing kicks with the next one's opening kicks, as
+  // deferring them does; a heat step needs the closing kicks of its own step.
+  const bool thermal = scene_.particles.thermal();
+  compute_forces(time_ + 0.5 * dt, ahead && defer_closing_ && !thermal);
   const bool overlap_exceeded = contacts_.max_overlap_fraction > scene_.max_overlap_fraction;
-  // A step that blows up here ends with its closing kicks given, deferred or not.
-  const bool defer = defer_closing_ && !overlap_exceeded && !scene_.particles.thermal();
-  const bool finite = defer || finish_step(dt);
+  // A step that blows up here ends with its closing kicks given: deferred, they are given now,
+  // and drifted ahead (a boundary past the limit) with the next step's opening ones.
+  const bool defer = defer_closing_ && !overlap_exceeded && !thermal && !drifted_;
+  const bool finite = drifted_ ? ahead_sweep_.finite : defer || finish_step(dt);
   closing_pending_ = defer;
   step_split_.rebalance_pending();
   bonds_formed_ += static_cast<std::int64_t>(contacts_.bonds_formed);
   bonds_broken_ += static_cast<std::int64_t>(contacts_.bonds_broken);
   time_ = static_cast<double>(++step_count_) * dt;
+  // The boundaries' motion of the next step, as its drift() would begin with.
+  if (drifted_) {
+    for (Boundary& boundary : scene_.boundaries) move_boundary(boundary, time_, dt);
+  }
   if (!finite || overlap_exceeded) throw diagnose_blow_up(finite);
   if (contacts_.thermal_step_ratio > 1.0) {
     std::ostringstream message;
@@ -591,6 +646,7 @@ void Stepper::defer_closing_kicks(bool defer) {
 }
 
 void Stepper::settle() {
+  if (drifted_) throw std::logic_error("Stepper::settle: drifted ahead; only step() continues");
   if (!closing_pending_) return;
   closing_pending_ = false;
   if (!finish_step(scene_.time_step)) throw diagnose_blow_up(false);
@@ -693,7 +749,9 @@ BlowUpError Stepper::diagnose_deep_boundary(std::ostringstream& message) const {
 }
 
 StepperState Stepper::save_state(SavedArrays arrays) const {
-  if (closing_pending_) throw std::logic_error("Stepper::save_state: settle() first");
+  if (closing_pending_ || drifted_) {
+    throw std::logic_error("Stepper::save_state: settle() first, and not after a drift ahead");
+  }
   StepperState state;
   state.time = time_;
   state.step = step_count_;
