@@ -18,7 +18,8 @@ RunEnd Simulation::run() {
   // A blow-up is an ending like the others: every observer hears it, then run() returns.
   const auto blown_up = [&](const BlowUpError& error) {
     if (stepper_.closing_pending()) {
-      // An observer that reads nothing threw: the observers hear of it at a settled state.
+      // An observer that reads nothing threw: the observers hear of it at a settled state, or
+      // after a drift ahead at that drift, as of a blow-up the drift itself found.
       try {
         stepper_.settle();
       } catch (const BlowUpError&) {  // the first error is the one reported

@@ -19,7 +19,6 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
-#include <optional>
 #include <span>
 #include <type_traits>
 #include <variant>
@@ -568,31 +567,6 @@ struct ParticleLoad {
   double conductance = 0.0;  ///< sum of its conductances [W/K] (thermal runs)
 };
 
-/// Where pass 2 stores the particles' total forces and torques: the particle arrays (first 0), or
-/// a buffer that holds particles [first, ...) of a range (Stepper::drift_ahead). Particle i's
-/// force x is fx[i - first].
-struct LoadArrays {
-  double* fx = nullptr;
-  double* fy = nullptr;
-  double* fz = nullptr;
-  double* tx = nullptr;  ///< null without friction
-  double* ty = nullptr;
-  double* tz = nullptr;
-  std::size_t first = 0;
-
-  /// The particles' own force and (with friction) torque arrays.
-  static LoadArrays of(Particles& p) {
-    const bool spin = !p.tx.empty();
-    return {p.fx.data(),
-            p.fy.data(),
-            p.fz.data(),
-            spin ? p.tx.data() : nullptr,
-            spin ? p.ty.data() : nullptr,
-            spin ? p.tz.data() : nullptr,
-            0};
-  }
-};
-
 /// Which of a particle's pair sums a loop of pass 2 makes: all of them, or its forces alone or
 /// its torques alone (two loops over the same particles, kSplitPairSumsParticles).
 enum class PairSums { kAll, kForce, kTorque };
@@ -660,25 +634,22 @@ void gather_pair_range(const Particles& p, const NeighborList& list, const PairF
   }
 }
 
-/// gather_pair_range straight into force (and, with kFriction, torque) arrays, @p out (the
-/// particles' own by default), in a run without heat: the same sums, without the loads in between
-/// (their stores and the copy out were a twentieth of the 20 800 peer lattice). With @p kSums
-/// kForce or kTorque only those arrays (gather_pairs).
+/// gather_pair_range straight into the particles' force (and, with kFriction, torque) arrays,
+/// for a block no boundary can touch in a run without heat: the same sums, without the block's
+/// loads in between (their stores and the copy out were a twentieth of the 20 800 peer lattice).
+/// With @p kSums kForce or kTorque only those arrays (gather_pairs).
 template <bool kFriction, bool kRolling, PairSums kSums = PairSums::kAll>
 void gather_pair_range_into(Particles& p, const NeighborList& list, const PairForces& pf,
-                            const Eigen::Vector3d& gravity, std::size_t first, std::size_t end,
-                            std::optional<LoadArrays> out = std::nullopt) {
+                            const Eigen::Vector3d& gravity, std::size_t first, std::size_t end) {
   constexpr bool kForce = kSums != PairSums::kTorque;
   constexpr bool kTorque = kFriction && kSums != PairSums::kForce;
-  const LoadArrays to = out ? *out : LoadArrays::of(p);
   // In locals: a store through the arrays could otherwise alias p's own members.
-  double* __restrict force_x = to.fx;
-  double* __restrict force_y = to.fy;
-  double* __restrict force_z = to.fz;
-  double* __restrict torque_x = to.tx;
-  double* __restrict torque_y = to.ty;
-  double* __restrict torque_z = to.tz;
-  const std::size_t base = to.first;
+  double* __restrict force_x = p.fx.data();
+  double* __restrict force_y = p.fy.data();
+  double* __restrict force_z = p.fz.data();
+  double* __restrict torque_x = p.tx.data();
+  double* __restrict torque_y = p.ty.data();
+  double* __restrict torque_z = p.tz.data();
   for (std::size_t i = first; i < end; ++i) {
     // The torque loop reads no mass.
     ParticleLoad load{
@@ -686,14 +657,14 @@ void gather_pair_range_into(Particles& p, const NeighborList& list, const PairFo
         Eigen::Vector3d::Zero()};
     gather_pairs<kFriction, kRolling, false, kSums>(p, list, pf, i, load);
     if constexpr (kForce) {
-      force_x[i - base] = load.force.x();
-      force_y[i - base] = load.force.y();
-      force_z[i - base] = load.force.z();
+      force_x[i] = load.force.x();
+      force_y[i] = load.force.y();
+      force_z[i] = load.force.z();
     }
     if constexpr (kTorque) {
-      torque_x[i - base] = load.torque.x();
-      torque_y[i - base] = load.torque.y();
-      torque_z[i - base] = load.torque.z();
+      torque_x[i] = load.torque.x();
+      torque_y[i] = load.torque.y();
+      torque_z[i] = load.torque.z();
     }
   }
 }
@@ -787,8 +758,7 @@ void gather_boundary(Particles& p, const Scene& scene, const Law& law, std::size
                      const BoundaryFrame& frame, const BoundaryCandidates& candidates,
                      std::size_t first, std::size_t end, bool thermal, const std::uint8_t* counted,
                      MeshQueryBuffer& buffer, ExactSum* thread_load, ExactSum* uncounted_load,
-                     ParticleLoad* loads, BoundaryTally& tally, BoundaryTally& uncounted,
-                     const LoadArrays& out) {
+                     ParticleLoad* loads, BoundaryTally& tally, BoundaryTally& uncounted) {
   const Boundary& boundary = scene.boundaries[b];
   const auto adder = [&](std::size_t i) {
     return [&, i](const BoundaryContact& contact) {
@@ -802,15 +772,14 @@ void gather_boundary(Particles& p, const Scene& scene, const Law& law, std::size
         boundary_load[axis].add(contact.force[axis]);
         boundary_load[3 + axis].add(moment[axis]);
       }
-      if (loads == nullptr) {  // the pair sums are stored in out: the same adds, in the same order
-        const std::size_t at = i - out.first;
-        out.fx[at] += contact.force.x();
-        out.fy[at] += contact.force.y();
-        out.fz[at] += contact.force.z();
+      if (loads == nullptr) {  // the pair sums are stored: the same adds, in the same order
+        p.fx[i] += contact.force.x();
+        p.fy[i] += contact.force.y();
+        p.fz[i] += contact.force.z();
         if constexpr (kFriction) {
-          out.tx[at] += contact.torque.x();
-          out.ty[at] += contact.torque.y();
-          out.tz[at] += contact.torque.z();
+          p.tx[i] += contact.torque.x();
+          p.ty[i] += contact.torque.y();
+          p.tz[i] += contact.torque.z();
         }
       } else {
         loads[i - first].force += contact.force;
@@ -859,9 +828,8 @@ void gather_boundary(Particles& p, const Scene& scene, const Law& law, std::size
   load.conductance += exchange.conductance;
 }
 
-/// What gather_forces calls with (share, first, end, loads) once particles [first, end) have
-/// their forces and torques in loads.
-using LoadedRange = std::function<void(int, std::size_t, std::size_t, const LoadArrays&)>;
+/// What gather_forces calls with (share, first, end) once particles [first, end) are loaded.
+using LoadedRange = std::function<void(int, std::size_t, std::size_t)>;
 
 /// Pass 2: total force (and, with kFriction, torque) per particle = gravity + own pairs -
 /// transposed pairs + boundaries. The force and moment of each boundary on the particles are
@@ -873,11 +841,10 @@ using LoadedRange = std::function<void(int, std::size_t, std::size_t, const Load
 /// radiation (the laser is added by the caller). @p frames: every boundary's frame_of at its
 /// current pose. kModels as in compute_pair_forces. With @p counted (as in compute_pair_forces),
 /// only the particles marked 1 add to the boundary loads and the boundary contacts; the largest
-/// overlaps take every particle. With @p loaded (runs without heat only), the forces and torques
-/// go to a buffer of the thread's, not to the particles' arrays: for each range of particles
-/// [first, end) it completes, the thread calls (*loaded)(share, first, end, buffer), share as in
-/// ThreadSplit::run, and reuses the buffer for its next range. A step whose forces only the next
-/// sweep reads so keeps them in the caches (Stepper::drift_ahead).
+/// overlaps take every particle. With @p loaded (runs without heat only), each thread calls
+/// (*loaded)(share, first, end), share as in ThreadSplit::run, as soon as particles [first, end)
+/// (a run of kSplitPairSumsBlocks blocks) hold their whole force and torque, while those are still
+/// in its caches (Stepper::drift_ahead).
 template <bool kFriction, bool kModels, class Law>
 ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborList& list,
                              const std::vector<BoundaryCandidates>& candidates,
@@ -904,14 +871,13 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
     thread_local MeshQueryBuffer buffer;  // reused: mesh queries allocate only while it grows
     thread_local std::vector<ExactSum> uncounted_load;
     if (counted != nullptr) uncounted_load.resize(boundaries * kBoundaryLoadValues);
-    // Every boundary's contacts with particles [first, end), into staged or, if null, out.
+    // Every boundary's contacts with particles [first, end), into staged or, if null, the arrays.
     const auto add_boundaries = [&](std::size_t first, std::size_t end, ParticleLoad* staged,
-                                    BoundaryTally& tally, BoundaryTally& uncounted,
-                                    const LoadArrays& out) {
+                                    BoundaryTally& tally, BoundaryTally& uncounted) {
       for (std::size_t b = 0; b < boundaries; ++b) {
         gather_boundary<kFriction, kModels>(p, scene, law, b, frames[b], candidates[b], first, end,
                                             thermal, counted, buffer, share_load,
-                                            uncounted_load.data(), staged, tally, uncounted, out);
+                                            uncounted_load.data(), staged, tally, uncounted);
       }
     };
     const auto add_tallies = [&](const BoundaryTally& tally, const BoundaryTally& uncounted) {
@@ -922,41 +888,25 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
           std::max({summary.max_overlap_fraction, tally.max_fraction, uncounted.max_fraction});
     };
     if (!thermal) {
-      // The pair sums straight into the force arrays (or loaded's buffer), then each boundary's
-      // contacts added to them: the additions of the staged loads below in the same order,
-      // without the loads' stores and copy (the blocks the floor reaches on the 20 800 peer
-      // lattice). Run by run of blocks: its pair sums (with split_sums a loop for its forces,
-      // then one for its torques, kSplitPairSumsParticles; else block by block), then its
-      // blocks' boundaries, then loaded.
+      // The pair sums straight into the force arrays, then each boundary's contacts added to
+      // them: the additions of the staged loads below in the same order, without the loads'
+      // stores and copy (the blocks the floor reaches on the 20 800 peer lattice). Run by run of
+      // blocks: its pair sums (with split_sums a loop for its forces, then one for its torques,
+      // kSplitPairSumsParticles; else block by block), then its blocks' boundaries, then loaded.
       const std::size_t run_blocks = kSplitPairSumsBlocks;
-      // With loaded, a run's forces and torques, six arrays of a run's particles.
-      thread_local std::vector<double> run_loads;
-      const std::size_t run_particles = run_blocks * kWallLoadBlock;
-      if (loaded != nullptr) run_loads.resize(6 * run_particles);
       for (std::size_t run = first_block; run < end_block; run += run_blocks) {
         const std::size_t run_end = std::min(end_block, run + run_blocks);
         const std::size_t first = run * kWallLoadBlock;
         const std::size_t end = std::min(n, run_end * kWallLoadBlock);
-        LoadArrays out = LoadArrays::of(p);
-        if (loaded != nullptr) {
-          double* const to = run_loads.data();
-          out = {to,
-                 to + run_particles,
-                 to + 2 * run_particles,
-                 kFriction ? to + 3 * run_particles : nullptr,
-                 kFriction ? to + 4 * run_particles : nullptr,
-                 kFriction ? to + 5 * run_particles : nullptr,
-                 first};
-        }
         if (split_sums) {
           gather_pair_range_into<kFriction, false, PairSums::kForce>(p, list, pair_forces, g, first,
-                                                                     end, out);
+                                                                     end);
           if (rolling) {
             gather_pair_range_into<kFriction, true, PairSums::kTorque>(p, list, pair_forces, g,
-                                                                       first, end, out);
+                                                                       first, end);
           } else {
             gather_pair_range_into<kFriction, false, PairSums::kTorque>(p, list, pair_forces, g,
-                                                                        first, end, out);
+                                                                        first, end);
           }
         } else {
           for (std::size_t block = run; block < run_end; ++block) {
@@ -968,10 +918,10 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
             }
             if (rolling) {
               gather_pair_range_into<kFriction, true>(p, list, pair_forces, g, block_begin,
-                                                      block_end, out);
+                                                      block_end);
             } else {
               gather_pair_range_into<kFriction, false>(p, list, pair_forces, g, block_begin,
-                                                       block_end, out);
+                                                       block_end);
             }
           }
         }
@@ -981,10 +931,10 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
           if (!boundary_within_reach(scene, candidates, block_begin, block_end)) continue;
           BoundaryTally tally;
           BoundaryTally uncounted;  // of particles another rank counts: only its maxima are kept
-          add_boundaries(block_begin, block_end, nullptr, tally, uncounted, out);
+          add_boundaries(block_begin, block_end, nullptr, tally, uncounted);
           add_tallies(tally, uncounted);
         }
-        if (loaded != nullptr) (*loaded)(share_index, first, end, out);
+        if (loaded != nullptr) (*loaded)(share_index, first, end);
       }
       return summary;
     }
@@ -1007,7 +957,7 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
         gather_pair_range<kFriction, false, true>(p, list, pair_forces, g, block_begin, block_end,
                                                   loads);
       }
-      add_boundaries(block_begin, block_end, loads, tally, uncounted, LoadArrays::of(p));
+      add_boundaries(block_begin, block_end, loads, tally, uncounted);
       // In locals: a store through the arrays could otherwise alias p's own members.
       double* __restrict force_x = p.fx.data();
       double* __restrict force_y = p.fy.data();

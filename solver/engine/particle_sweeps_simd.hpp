@@ -9,7 +9,6 @@
 
 #include <cstddef>
 #include <cstdint>
-#include <initializer_list>
 
 namespace bondem {
 
@@ -29,26 +28,6 @@ struct SweepArrays {
   /// kinematics records (LanePassScratch), written while the values are in registers.
   double* records = nullptr;
   std::size_t record_count = 0;  ///< the particles the records hold
-
-  /// The same arrays with particle @p first at index 0 (null ones stay null).
-  SweepArrays from(std::size_t first) const {
-    const auto at = [first](auto* array) { return array == nullptr ? array : array + first; };
-    SweepArrays shifted = *this;
-    for (double** array :
-         {&shifted.x, &shifted.y, &shifted.z, &shifted.vx, &shifted.vy, &shifted.vz, &shifted.wx,
-          &shifted.wy, &shifted.wz, &shifted.dx, &shifted.dy, &shifted.dz}) {
-      *array = at(*array);
-    }
-    for (const double** array :
-         {&shifted.fx, &shifted.fy, &shifted.fz, &shifted.tx, &shifted.ty, &shifted.tz,
-          &shifted.mass, &shifted.radius, &shifted.x0, &shifted.y0, &shifted.z0}) {
-      *array = at(*array);
-    }
-    shifted.counted = at(counted);
-    // The velocity records stay record_count records after the position ones.
-    if (records != nullptr) shifted.records = records + 4 * first;
-    return shifted;
-  }
 };
 
 /// The opening sweep over particles [@p first, @p end): v += (dt/2) F/m, x += dt v (the tracked

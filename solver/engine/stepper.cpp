@@ -120,21 +120,12 @@ ContactSummary Stepper::evaluate_forces(const Law& law, bool ahead) {
       arrays.record_count = n;
     }
     ahead_parts_.assign(static_cast<std::size_t>(std::max(threads_in_use(n), 1)), {});
-    drift_ahead.emplace(
-        [&](int share, std::size_t first, std::size_t end, const LoadArrays& loads) {
-          // Particle first at index 0, its force and torque from the buffer pass 2 just filled.
-          SweepArrays range = arrays.from(first);
-          range.fx = loads.fx;
-          range.fy = loads.fy;
-          range.fz = loads.fz;
-          range.tx = loads.tx;
-          range.ty = loads.ty;
-          range.tz = loads.tz;
-          const SweepResult part = closing_opening_sweep(range, scene_.time_step, 0, end - first);
-          SweepResult& all = ahead_parts_[static_cast<std::size_t>(share)].result;
-          all.largest_sq = std::max(all.largest_sq, part.largest_sq);
-          all.finite = all.finite && part.finite;
-        });
+    drift_ahead.emplace([&](int share, std::size_t first, std::size_t end) {
+      const SweepResult part = closing_opening_sweep(arrays, scene_.time_step, first, end);
+      SweepResult& all = ahead_parts_[static_cast<std::size_t>(share)].result;
+      all.largest_sq = std::max(all.largest_sq, part.largest_sq);
+      all.finite = all.finite && part.finite;
+    });
   }
   const ContactSummary walls = gather_forces<kFriction, kModels>(
       scene_.particles, scene_, list_, boundary_candidates_, boundary_frames_, law, pair_forces_,

@@ -163,12 +163,10 @@ class Stepper {
   /// completes their forces: those are then read from the caches instead of the memory, and the
   /// sweep of the next step() is already done. The same operations in the same order, so the same
   /// bytes; but the state after that step is in the middle of the next one (drifted()), which
-  /// only step() can complete: ask for it at steps whose end state nobody reads. Its forces and
-  /// torques stay in pass 2's buffers (the particles' force and torque arrays keep the last
-  /// settled step's), and a boundary past the overlap limit ends it drifted. Measured
-  /// (bench_step, BM_Step_DriftAheadPaired, runs of eight steps, seven of them drifting ahead):
-  /// 0.977 of the time per step at 997 477 spheres on one thread, 0.976 on two, 1.000 at 20 800.
-  /// Off by default.
+  /// only step() can complete: ask for it at steps whose end state nobody reads. A boundary past
+  /// the overlap limit ends it drifted. Measured (bench_step, BM_Step_DriftAheadPaired, runs of
+  /// eight steps, seven of them drifting ahead): 0.98-0.99 of the time per step at 997 477
+  /// spheres on one thread, 0.95-0.99 on two, 1.00 at 20 800. Off by default.
   void drift_ahead(bool ahead) { drift_ahead_ = ahead; }
   /// Whether the last step() took the next one's opening kicks and drift (drift_ahead()): until
   /// the next step(), positions are those of the next step's forces.
