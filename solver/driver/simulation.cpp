@@ -15,11 +15,11 @@ RunEnd Simulation::run() {
   using Clock = std::chrono::steady_clock;
   RunEnd end;
   end.first_step = step();
-  // A blow-up is an ending like the others: every observer hears it, then run() returns.
+  // A blow-up is an ending like the others: every observer hears it, then run() returns. After a
+  // drift ahead (Stepper::drifted) they hear of it at that drift, the forces those of the step.
   const auto blown_up = [&](const BlowUpError& error) {
     if (stepper_.closing_pending()) {
-      // An observer that reads nothing threw: the observers hear of it at a settled state, or
-      // after a drift ahead at that drift, as of a blow-up the drift itself found.
+      // An observer that reads nothing threw: the observers hear of it at a settled state.
       try {
         stepper_.settle();
       } catch (const BlowUpError&) {  // the first error is the one reported
