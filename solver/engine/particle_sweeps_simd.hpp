@@ -7,6 +7,7 @@
 /// particle); in lanes those four divisions per particle-step run several at a time, where the
 /// scalar loops waited on the divider.
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 
@@ -43,6 +44,12 @@ bool closing_sweep(const SweepArrays& a, double dt, std::size_t first, std::size
 struct SweepResult {
   double largest_sq = 0.0;  ///< as opening_sweep() returns
   bool finite = true;       ///< as closing_sweep() returns, for the step it closes
+
+  /// Adds what another range's sweep saw (exact: any order agrees).
+  void merge(const SweepResult& part) {
+    largest_sq = std::max(largest_sq, part.largest_sq);
+    finite = finite && part.finite;
+  }
 };
 
 /// closing_sweep() of the step before, then opening_sweep(), over particles [@p first, @p end)

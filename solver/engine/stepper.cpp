@@ -113,18 +113,12 @@ ContactSummary Stepper::evaluate_forces(const Law& law, bool ahead) {
   std::optional<LoadedRange> drift_ahead;
   SweepArrays arrays;
   if (drifted_) {
+    arrays = sweep_arrays(true);
     const std::size_t n = scene_.particles.size();
-    arrays = sweep_arrays();
-    if (!lane_constants_.empty()) {
-      arrays.records = records_for_sweep(lane_scratch_, n);
-      arrays.record_count = n;
-    }
     ahead_parts_.assign(static_cast<std::size_t>(std::max(threads_in_use(n), 1)), {});
     drift_ahead.emplace([&](int share, std::size_t first, std::size_t end) {
-      const SweepResult part = closing_opening_sweep(arrays, scene_.time_step, first, end);
-      SweepResult& all = ahead_parts_[static_cast<std::size_t>(share)].result;
-      all.largest_sq = std::max(all.largest_sq, part.largest_sq);
-      all.finite = all.finite && part.finite;
+      ahead_parts_[static_cast<std::size_t>(share)].result.merge(
+          closing_opening_sweep(arrays, scene_.time_step, first, end));
     });
   }
   const ContactSummary walls = gather_forces<kFriction, kModels>(
@@ -132,10 +126,7 @@ ContactSummary Stepper::evaluate_forces(const Law& law, bool ahead) {
       wall_loads_, step_split_, counted, drift_ahead ? &*drift_ahead : nullptr);
   if (drifted_) {
     ahead_sweep_ = SweepResult{};
-    for (const SharedSweepResult& part : ahead_parts_) {
-      ahead_sweep_.largest_sq = std::max(ahead_sweep_.largest_sq, part.result.largest_sq);
-      ahead_sweep_.finite = ahead_sweep_.finite && part.result.finite;
-    }
+    for (const SharedSweepResult& part : ahead_parts_) ahead_sweep_.merge(part.result);
     lane_scratch_.current = arrays.records != nullptr;
   }
   pairs.wall_contacts = walls.wall_contacts;
@@ -421,8 +412,17 @@ void Stepper::rebuild_list() {
   build_boundary_candidates(scene_, boundary_candidates_);
 }
 
-SweepArrays Stepper::sweep_arrays() {
+void Stepper::move_boundaries(double dt) {
+  for (Boundary& boundary : scene_.boundaries) move_boundary(boundary, time_, dt);
+}
+
+SweepArrays Stepper::sweep_arrays(bool write_records) {
   Particles& p = scene_.particles;
+  // The SIMD pass's records, written by the sweep while each value is in a register: a sweep of
+  // its own over eight arrays and a parallel region less per step.
+  double* const records = write_records && !lane_constants_.empty()
+                              ? records_for_sweep(lane_scratch_, p.size())
+                              : nullptr;
   const bool spin = scene_.friction;
   const bool tracked = p.displacement_tracked;
   return {.x = p.x.data(),
@@ -450,23 +450,19 @@ SweepArrays Stepper::sweep_arrays() {
           .z0 = list_.build_positions(2).data(),
           // Only the counted particles' displacements: a decomposed run's ranks then agree on
           // the whole run's largest, however far their ghosts drift from their owners meanwhile.
-          .counted = counted_.empty() ? nullptr : counted_.data()};
+          .counted = counted_.empty() ? nullptr : counted_.data(),
+          .records = records,
+          .record_count = records != nullptr ? p.size() : 0};
 }
 
 double Stepper::drift(double dt, bool write_records) {
-  for (Boundary& boundary : scene_.boundaries) move_boundary(boundary, time_, dt);
+  move_boundaries(dt);
   // One sweep: the opening half-kicks, the drift and the list's displacement check each read and
   // write the same particle arrays, which at 10^6 particles come from memory every time. The
   // displacement gets the very increment the position gets, so it stays x - x0 up to rounding
   // and does not jump when the list wraps a coordinate across a periodic boundary.
-  SweepArrays arrays = sweep_arrays();
+  const SweepArrays arrays = sweep_arrays(write_records);
   const std::size_t n = scene_.particles.size();
-  if (write_records && !lane_constants_.empty()) {
-    // The SIMD pass's records, written here while each value is in a register: a sweep of its
-    // own over eight arrays and a parallel region less per step.
-    arrays.records = records_for_sweep(lane_scratch_, n);
-    arrays.record_count = n;
-  }
   const std::size_t chunks = (n + kPairPassChunk - 1) / kPairPassChunk;
   // A contiguous run of chunks per thread, moved toward equal times (thread_split.hpp).
   step_split_.prepare(chunks, threads_in_use(n));
@@ -480,10 +476,7 @@ double Stepper::drift(double dt, bool write_records) {
           return closing_opening_sweep(arrays, dt, first_chunk * kPairPassChunk,
                                        std::min(n, end_chunk * kPairPassChunk));
         },
-        [](SweepResult& all, const SweepResult& part) {
-          all.largest_sq = std::max(all.largest_sq, part.largest_sq);
-          all.finite = all.finite && part.finite;
-        });
+        [](SweepResult& all, const SweepResult& part) { all.merge(part); });
     // The particles listed are those not finite after this drift: the same ones, since a
     // non-finite position or velocity stays so and a finite one overflowing in one drift is
     // beyond any run that reaches this test.
@@ -617,9 +610,7 @@ void Stepper::complete_step(bool rebuild, bool ahead) {
   bonds_broken_ += static_cast<std::int64_t>(contacts_.bonds_broken);
   time_ = static_cast<double>(++step_count_) * dt;
   // The boundaries' motion of the next step, as its drift() would begin with.
-  if (drifted_) {
-    for (Boundary& boundary : scene_.boundaries) move_boundary(boundary, time_, dt);
-  }
+  if (drifted_) move_boundaries(dt);
   if (!finite || overlap_exceeded) throw diagnose_blow_up(finite);
   if (contacts_.thermal_step_ratio > 1.0) {
     std::ostringstream message;

@@ -270,8 +270,11 @@ class Stepper {
   ContactSummary evaluate_forces(const Law& law, bool ahead);
   /// The laser's heat deposit of this step into p.heat_rate (thermal runs with a laser).
   void deposit_laser(double laser_time);
-  /// The particle arrays of the sweeps (drift, finish_step), as they are now.
-  SweepArrays sweep_arrays();
+  /// The particle arrays of the sweeps (drift, finish_step), as they are now; with
+  /// @p write_records, also the SIMD pass's kinematics records where the pass reads them.
+  SweepArrays sweep_arrays(bool write_records = false);
+  /// Every boundary moved by its motion over the step that starts now.
+  void move_boundaries(double dt);
   /// Half kick and drift; returns the largest squared displacement since the last list build.
   /// With @p write_records, also the SIMD pass's kinematics records (LanePassScratch), for a
   /// force evaluation that follows with no other change to the particles.
