@@ -24,7 +24,7 @@ void run_steps(benchmark::State& state, bool friction) {
   Scene scene = lattice_scene(side, 13, friction);
   Stepper stepper(scene);
   // As a run steps between outputs: each step's closing kicks merge with the next's sweep.
-  stepper.defer_closing_kicks(true);
+  stepper.drift_ahead(true);
   for (auto _ : state) stepper.step();
   const auto particles = static_cast<double>(scene.particles.size());
   state.counters["particles"] = particles;
@@ -47,7 +47,7 @@ void BM_Step_Friction(benchmark::State& state) {
 void floor_steps(benchmark::State& state, bench::Floor floor) {
   Scene scene = lattice_scene(static_cast<int>(state.range(0)), 13, true, floor);
   Stepper stepper(scene);
-  stepper.defer_closing_kicks(true);  // as run_steps
+  stepper.drift_ahead(true);  // as run_steps
   for (auto _ : state) stepper.step();
   state.counters["particles"] = static_cast<double>(scene.particles.size());
   state.counters["wall_contacts"] = static_cast<double>(stepper.contacts().wall_contacts);
@@ -63,18 +63,20 @@ void BM_Step_FloorMesh(benchmark::State& state) {
 /// (runs of one binary scatter by 15-20 % on the shared machine) moves both alike. Runs of
 /// @p unit steps alternate between the variants (which goes first alternates too) and the
 /// counters give each one's median time per step and the median of the paired ratios
-/// variant / reference (below 1: the variant is faster). @p use(Stepper&, bool variant, bool last)
-/// switches before each step, last for the unit's last step.
+/// variant / reference (below 1: the variant is faster). Every step of a unit but its last
+/// drifts ahead (as run_steps), and the variants switch at the settled state between units;
+/// @p use(Stepper&, bool variant, bool last) switches before each step, last for the unit's last
+/// step.
 template <class Use>
 void paired_steps(benchmark::State& state, Use&& use, int unit = 1) {
   Scene scene = lattice_scene(static_cast<int>(state.range(0)), 13, true);
   Stepper stepper(scene);
-  stepper.defer_closing_kicks(true);           // as run_steps
   for (int s = 0; s < 5; ++s) stepper.step();  // first touches, the splits' first moves
   std::vector<double> variant, reference, ratio;
   const auto timed_step = [&](bool is_variant) {
     const auto start = std::chrono::steady_clock::now();
     for (int s = 0; s < unit; ++s) {
+      stepper.drift_ahead(s + 1 < unit);
       use(stepper, is_variant, s + 1 == unit);
       stepper.step();
     }
@@ -127,9 +129,9 @@ void BM_Step_StreamPaired(benchmark::State& state) {
   set_stream_pair_slots_from(limit);
 }
 
-/// Steps that take the next step's opening sweep as their pass 2 ends (Stepper::drift_ahead,
-/// variant) against steps that leave it to the next step (reference), as a run between outputs
-/// takes them: in runs of eight, all but the last drifting ahead.
+/// Steps that take their closing sweep and the next step's opening sweep as their pass 2 ends
+/// (Stepper::drift_ahead, variant) against settled steps (reference): in runs of eight, all but
+/// the last drifting ahead, as a run between outputs takes them.
 void BM_Step_DriftAheadPaired(benchmark::State& state) {
   paired_steps(
       state,

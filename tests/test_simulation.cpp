@@ -240,8 +240,7 @@ Case frictional_gas() {
 }
 
 /// Reads the state (positions, velocities, spins, as bytes) every @p every steps only, and
-/// notes whether the stepper's closing kicks were pending, or the next step's drift taken, at
-/// each step it does not read.
+/// notes whether the next step's drift was taken at each step it does not read.
 class SparseReader : public Observer {
  public:
   explicit SparseReader(std::int64_t every) : every_(every) {}
@@ -250,11 +249,10 @@ class SparseReader : public Observer {
   }
   void after_step(const Simulation& s) override {
     if (!reads_state(s, s.step())) {
-      pending_steps += s.stepper().closing_pending() ? 1 : 0;
       drifted_steps += s.stepper().drifted() ? 1 : 0;
       return;
     }
-    EXPECT_FALSE(s.stepper().closing_pending() || s.stepper().drifted()) << "step " << s.step();
+    EXPECT_FALSE(s.stepper().drifted()) << "step " << s.step();
     const Particles& p = s.scene().particles;
     for (const auto* field : {&p.x, &p.y, &p.z, &p.vx, &p.vy, &p.vz, &p.wx, &p.wy, &p.wz}) {
       states.emplace_back(reinterpret_cast<const char*>(field->data()),
@@ -262,7 +260,6 @@ class SparseReader : public Observer {
     }
   }
   std::vector<std::string> states;
-  int pending_steps = 0;
   int drifted_steps = 0;
 
  private:
@@ -271,7 +268,7 @@ class SparseReader : public Observer {
 
 TEST(Simulation, StepsDriftedAheadGiveTheBytesOfSettledSteps) {
   // At steps no observer reads, the closing half-kicks are given with the next step's opening
-  // ones and its drift as pass 2 ends (Stepper::defer_closing_kicks, Stepper::drift_ahead), by the
+  // ones and its drift as pass 2 ends (Stepper::drift_ahead), by the
   // same operations: the states read must be the bytes of a run that settles every step (an
   // observer reading every step).
   constexpr std::int64_t kSteps = 60;
@@ -283,10 +280,9 @@ TEST(Simulation, StepsDriftedAheadGiveTheBytesOfSettledSteps) {
   ASSERT_TRUE(sparse_run.simulation.run().finished);
   ASSERT_TRUE(settled_run.simulation.run().finished);
   ASSERT_GT(sparse_run.stepper.contacts().contacts, 0u);
-  // Every step not read but the last drifts ahead; none is left merely deferred.
+  // Every step not read but the last drifts ahead.
   EXPECT_EQ(sparse.drifted_steps, kSteps - kSteps / 7 - 1);
-  EXPECT_EQ(sparse.pending_steps, 0);
-  EXPECT_EQ(every_step.pending_steps + every_step.drifted_steps, 0);
+  EXPECT_EQ(every_step.drifted_steps, 0);
   ASSERT_EQ(sparse.states.size(), 9u * (kSteps / 7));
   for (std::size_t k = 0; k < sparse.states.size(); ++k) {
     // every_step read steps 1, 2, ...; sparse steps 7, 14, ...: the same field of step 7 (r + 1).
@@ -295,7 +291,7 @@ TEST(Simulation, StepsDriftedAheadGiveTheBytesOfSettledSteps) {
         << "field " << field << " at step " << 7 * (read + 1);
   }
   // The last step is always settled.
-  EXPECT_FALSE(sparse_run.stepper.closing_pending() || sparse_run.stepper.drifted());
+  EXPECT_FALSE(sparse_run.stepper.drifted());
   const Particles& a = sparse_run.scene.particles;
   const Particles& b = settled_run.scene.particles;
   EXPECT_EQ(std::memcmp(a.vx.data(), b.vx.data(), a.size() * sizeof(double)), 0);
@@ -311,9 +307,7 @@ TEST(Simulation, ABlowUpFoundByTheMergedSweepNamesTheStepItCloses) {
     f.scene.particles.vy[3] = std::numeric_limits<double>::quiet_NaN();
     SparseReader reader(every);
     f.simulation.attach(reader);
-    const RunEnd end = f.simulation.run();
-    EXPECT_FALSE(f.stepper.closing_pending());
-    return end;
+    return f.simulation.run();
   };
   const RunEnd deferred = blow_up(100), settled = blow_up(1);
   ASSERT_TRUE(deferred.blow_up.has_value());
@@ -366,7 +360,7 @@ TEST(Simulation, AStopRequestDuringADriftAheadStopsAtTheStepItBegan) {
   const std::vector<std::string> expected{"step 1", "step 2", "step 3",
                                           "step 4", "step 5", "interrupted 5"};
   EXPECT_EQ(requester.log, expected);
-  EXPECT_FALSE(stopped.stepper.closing_pending() || stopped.stepper.drifted());
+  EXPECT_FALSE(stopped.stepper.drifted());
   for (int s = 0; s < 5; ++s) settled.stepper.step();
   const Particles& a = stopped.scene.particles;
   const Particles& b = settled.scene.particles;

@@ -18,13 +18,6 @@ RunEnd Simulation::run() {
   // A blow-up is an ending like the others: every observer hears it, then run() returns. After a
   // drift ahead (Stepper::drifted) they hear of it at that drift, the forces those of the step.
   const auto blown_up = [&](const BlowUpError& error) {
-    if (stepper_.closing_pending()) {
-      // An observer that reads nothing threw: the observers hear of it at a settled state.
-      try {
-        stepper_.settle();
-      } catch (const BlowUpError&) {  // the first error is the one reported
-      }
-    }
     end.step = step();
     end.stopped = StopReason::kBlowUp;
     end.blow_up = error;
@@ -41,18 +34,14 @@ RunEnd Simulation::run() {
   const auto elapsed = [&] {
     return std::chrono::duration<double>(Clock::now() - started).count();
   };
-  // Steps whose end state no observer reads leave their closing half-kicks to the next step's
-  // opening sweep (Stepper::defer_closing_kicks), which they take as their pass 2 ends
-  // (Stepper::drift_ahead): the same bytes, one sweep fewer, and the forces read from the caches.
-  // Every way out of the loop below sees a settled state, but a blow-up's.
-  stepper_.defer_closing_kicks(true);
-  struct Undefer {
+  // Steps whose end state no observer reads give their closing half-kicks with the next step's
+  // opening ones and drift, as their pass 2 ends (Stepper::drift_ahead): the same bytes, one
+  // sweep fewer, and the forces read from the caches. Every way out of the loop below sees a
+  // settled state, but a blow-up's.
+  struct NoDriftAhead {
     Stepper& stepper;
-    ~Undefer() {
-      stepper.defer_closing_kicks(false);
-      stepper.drift_ahead(false);
-    }
-  } undefer{stepper_};
+    ~NoDriftAhead() { stepper.drift_ahead(false); }
+  } no_drift_ahead{stepper_};
   const auto state_read = [&](std::int64_t at) {
     if (at == last_step_ || (stop_flag_ != nullptr && *stop_flag_ != 0)) return true;
     for (const Observer* observer : observers_) {
@@ -64,21 +53,15 @@ RunEnd Simulation::run() {
     try {
       stepper_.drift_ahead(!state_read(step() + 1));
       stepper_.step();
-      // Drifted ahead, the state is the next step's: a stop request that came meanwhile waits
-      // for that step, which reads it.
-      if (!stepper_.drifted() && state_read(step())) stepper_.settle();
       for (Observer* observer : observers_) observer->after_step(*this);
     } catch (const BlowUpError& error) {
       end.loop_seconds = elapsed();
       return blown_up(error);
     }
+    // Drifted ahead, the state is the next step's: a stop request that came meanwhile waits for
+    // that step, which state_read() then settles.
     if (stop_flag_ != nullptr && *stop_flag_ != 0 && !at_end() && !stepper_.drifted()) {
       end.loop_seconds = elapsed();
-      try {
-        stepper_.settle();  // the flag may have risen after state_read()
-      } catch (const BlowUpError& error) {
-        return blown_up(error);
-      }
       end.step = step();
       end.stopped = StopReason::kStopRequested;
       interrupt({StopReason::kStopRequested, nullptr});

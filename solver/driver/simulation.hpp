@@ -47,9 +47,9 @@ class Observer {
   virtual void after_step(const Simulation& /*simulation*/) {}
   /// Whether after_step() at step @p step (the next one at the latest; asked before it is taken)
   /// reads the particles or the stepper's state (beyond step and time): only then does run()
-  /// give the step's closing half-kicks before calling it (Stepper::defer_closing_kicks);
-  /// between others they merge with the next step's opening ones, taken as pass 2 of the step
-  /// ends (Stepper::drift_ahead). Observers that read at some steps only say which. One that
+  /// give the step's closing half-kicks before calling it; at others they merge with the next
+  /// step's opening ones and drift, taken as pass 2 of the step ends (Stepper::drift_ahead).
+  /// Observers that read at some steps only say which. One that
   /// reads nothing at a step may hear its after_step() before the next step's sweep finds that
   /// it left a value not finite (interrupted() then follows, naming that step).
   virtual bool reads_state(const Simulation& /*simulation*/, std::int64_t /*step*/) const {

@@ -54,7 +54,7 @@ struct SweepResult {
 
 /// closing_sweep() of the step before, then opening_sweep(), over particles [@p first, @p end)
 /// in one pass: the same operations, so the same bytes, with each array read and written once
-/// instead of twice. For a step whose end state nobody reads (Stepper::defer_closing_kicks).
+/// instead of twice. For a step whose end state nobody reads (Stepper::drift_ahead).
 SweepResult closing_opening_sweep(const SweepArrays& a, double dt, std::size_t first,
                                   std::size_t end);
 

@@ -466,24 +466,6 @@ double Stepper::drift(double dt, bool write_records) {
   const std::size_t chunks = (n + kPairPassChunk - 1) / kPairPassChunk;
   // A contiguous run of chunks per thread, moved toward equal times (thread_split.hpp).
   step_split_.prepare(chunks, threads_in_use(n));
-  if (closing_pending_) {
-    // The last step's closing kicks and this step's opening ones in one sweep; its finite test
-    // is the closing sweep's, of the last step (step_count_ and time_ still name it).
-    closing_pending_ = false;
-    const SweepResult result = step_split_.run(
-        SweepResult{},
-        [&](int, std::size_t first_chunk, std::size_t end_chunk) {
-          return closing_opening_sweep(arrays, dt, first_chunk * kPairPassChunk,
-                                       std::min(n, end_chunk * kPairPassChunk));
-        },
-        [](SweepResult& all, const SweepResult& part) { all.merge(part); });
-    // The particles listed are those not finite after this drift: the same ones, since a
-    // non-finite position or velocity stays so and a finite one overflowing in one drift is
-    // beyond any run that reaches this test.
-    if (!result.finite) throw diagnose_blow_up(false);
-    lane_scratch_.current = arrays.records != nullptr;
-    return result.largest_sq;
-  }
   const double largest_sq = step_split_.run(
       0.0,
       [&](int, std::size_t first_chunk, std::size_t end_chunk) {
@@ -595,16 +577,13 @@ void Stepper::complete_step(bool rebuild, bool ahead) {
   }
   // The laser deposits at mid-step, so a beam on for T seconds delivers its power for T seconds
   // to within one step.
-  // Drifting ahead merges this step's closing kicks with the next one's opening kicks, as
-  // deferring them does; a heat step needs the closing kicks of its own step.
-  const bool thermal = scene_.particles.thermal();
-  compute_forces(time_ + 0.5 * dt, ahead && defer_closing_ && !thermal);
+  // Drifting ahead merges this step's closing kicks with the next one's opening kicks; a heat
+  // step needs the closing kicks of its own step.
+  compute_forces(time_ + 0.5 * dt, ahead && !scene_.particles.thermal());
   const bool overlap_exceeded = contacts_.max_overlap_fraction > scene_.max_overlap_fraction;
-  // A step that blows up here ends with its closing kicks given: deferred, they are given now,
-  // and drifted ahead (a boundary past the limit) with the next step's opening ones.
-  const bool defer = defer_closing_ && !overlap_exceeded && !thermal && !drifted_;
-  const bool finite = drifted_ ? ahead_sweep_.finite : defer || finish_step(dt);
-  closing_pending_ = defer;
+  // A step that blows up here ends with its closing kicks given: drifted ahead (a boundary past
+  // the limit), with the next step's opening ones.
+  const bool finite = drifted_ ? ahead_sweep_.finite : finish_step(dt);
   step_split_.rebalance_pending();
   bonds_formed_ += static_cast<std::int64_t>(contacts_.bonds_formed);
   bonds_broken_ += static_cast<std::int64_t>(contacts_.bonds_broken);
@@ -621,17 +600,6 @@ void Stepper::complete_step(bool rebuild, bool ahead) {
             << " s or below (or raise specific_heat, lower thermal_conductivity)";
     throw BlowUpError(message.str(), BlowUpCause::kHeat);
   }
-}
-
-void Stepper::defer_closing_kicks(bool defer) {
-  defer_closing_ = defer;
-}
-
-void Stepper::settle() {
-  if (drifted_) throw std::logic_error("Stepper::settle: drifted ahead; only step() continues");
-  if (!closing_pending_) return;
-  closing_pending_ = false;
-  if (!finish_step(scene_.time_step)) throw diagnose_blow_up(false);
 }
 
 BlowUpError Stepper::diagnose_blow_up(bool finite) const {
@@ -731,8 +699,8 @@ BlowUpError Stepper::diagnose_deep_boundary(std::ostringstream& message) const {
 }
 
 StepperState Stepper::save_state(SavedArrays arrays) const {
-  if (closing_pending_ || drifted_) {
-    throw std::logic_error("Stepper::save_state: settle() first, and not after a drift ahead");
+  if (drifted_) {
+    throw std::logic_error("Stepper::save_state: drifted ahead; only step() continues");
   }
   StepperState state;
   state.time = time_;

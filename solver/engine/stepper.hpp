@@ -143,30 +143,19 @@ class Stepper {
   /// or a particle was inserted, the forces, the closing half-kicks and the checks of step().
   void complete_step(bool rebuild);
 
-  /// With @p defer, complete_step() leaves the closing half-kicks of a step that did not blow up
-  /// pending, and the next move() gives them in one sweep with its own opening ones (the same
-  /// operations, so the same bytes, with each particle array read and written once per step
-  /// instead of twice). Until settle(), the velocities and spins are then those before the
-  /// closing kicks: whoever reads the state between steps calls settle() first. A
-  /// non-finite value found by the merged sweep throws the BlowUpError of the step it closes.
-  /// Thermal runs never defer (their heat step shares the closing sweep). Off by default.
-  void defer_closing_kicks(bool defer);
-  /// Give the pending closing half-kicks (defer_closing_kicks()), if any; throws BlowUpError
-  /// as complete_step() when a position or velocity is not finite. Throws std::logic_error when
-  /// drifted(): only step() completes that state.
-  void settle();
-  /// Whether the last step's closing half-kicks are still pending.
-  bool closing_pending() const { return closing_pending_; }
-  /// With @p ahead, the next step() whose closing kicks would be deferred
-  /// (defer_closing_kicks(), no heat, no overlap past the limit in its pairs) also takes the
-  /// following step's opening half-kicks and drift, particle range by particle range as pass 2
-  /// completes their forces: those are then read from the caches instead of the memory, and the
-  /// sweep of the next step() is already done. The same operations in the same order, so the same
-  /// bytes; but the state after that step is in the middle of the next one (drifted()), which
-  /// only step() can complete: ask for it at steps whose end state nobody reads. A boundary past
-  /// the overlap limit ends it drifted. Measured (bench_step, BM_Step_DriftAheadPaired, runs of
-  /// eight steps, seven of them drifting ahead): 0.98-0.99 of the time per step at 997 477
-  /// spheres on one thread, 0.95-0.99 on two, 1.00 at 20 800. Off by default.
+  /// With @p ahead, the next step() (unless a heat step, or one with an overlap past the limit in
+  /// its pairs) also gives its closing half-kicks, and the following step's opening half-kicks and
+  /// drift, particle range by particle range as pass 2 completes their forces: those are then read
+  /// from the caches instead of the memory, each particle array is read and written once per step
+  /// instead of twice, and the sweep of the next step() is already done. The same operations in
+  /// the same order, so the same bytes; but the state after that step is in the middle of the
+  /// next one (drifted()), which only step() can complete: ask for it at steps whose end state
+  /// nobody reads. A boundary past the overlap limit ends it drifted, and a non-finite value the
+  /// merged sweep finds throws the BlowUpError of the step it closes. Measured (bench_step,
+  /// BM_Step_DriftAheadPaired, runs of eight steps, seven of them drifting ahead, against the
+  /// closing kicks deferred to the next step's sweep, which drifting ahead replaced): 0.98-0.99 of
+  /// the time per step at 997 477 spheres on one thread, 0.95-0.99 on two, 1.00 at 20 800. Off
+  /// by default.
   void drift_ahead(bool ahead) { drift_ahead_ = ahead; }
   /// Whether the last step() took the next one's opening kicks and drift (drift_ahead()): until
   /// the next step(), positions are those of the next step's forces.
@@ -382,8 +371,6 @@ class Stepper {
   std::vector<std::int64_t> counted_ids_;  ///< count_only()'s ids, sorted
   bool share_only_ = false;                ///< count_only() was called
   bool insert_here_ = true;                ///< false after insert_elsewhere()
-  bool defer_closing_ = false;             ///< defer_closing_kicks()
-  bool closing_pending_ = false;           ///< the last step's closing kicks are not given yet
   bool drift_ahead_ = false;               ///< drift_ahead()
   bool drifted_ = false;                   ///< drifted()
   SweepResult ahead_sweep_;                ///< what the last step's drift ahead saw, merged
