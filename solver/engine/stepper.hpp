@@ -152,10 +152,9 @@ class Stepper {
   /// next one (drifted()), which only step() can complete: ask for it at steps whose end state
   /// nobody reads. A boundary past the overlap limit ends it drifted, and a non-finite value the
   /// merged sweep finds throws the BlowUpError of the step it closes. Measured (bench_step,
-  /// BM_Step_DriftAheadPaired, runs of eight steps, seven of them drifting ahead, against the
-  /// closing kicks deferred to the next step's sweep, which drifting ahead replaced): 0.98-0.99 of
-  /// the time per step at 997 477 spheres on one thread, 0.95-0.99 on two, 1.00 at 20 800. Off
-  /// by default.
+  /// BM_Step_DriftAheadPaired, runs of eight steps, seven of them drifting ahead, against eight
+  /// settled ones): 0.90 of the time per step at 997 477 spheres on one thread, 0.89 on two, 0.95
+  /// at 20 800. Off by default.
   void drift_ahead(bool ahead) { drift_ahead_ = ahead; }
   /// Whether the last step() took the next one's opening kicks and drift (drift_ahead()): until
   /// the next step(), positions are those of the next step's forces.
