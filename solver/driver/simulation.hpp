@@ -49,9 +49,9 @@ class Observer {
   /// reads the particles or the stepper's state (beyond step and time): only then does run()
   /// give the step's closing half-kicks before calling it; at others they merge with the next
   /// step's opening ones and drift, taken as pass 2 of the step ends (Stepper::drift_ahead).
-  /// Observers that read at some steps only say which. One that
-  /// reads nothing at a step may hear its after_step() before the next step's sweep finds that
-  /// it left a value not finite (interrupted() then follows, naming that step).
+  /// Observers that read at some steps only say which. A step that drifted ahead finds a value
+  /// it left not finite in that merged sweep, before its after_step(): interrupted() then names
+  /// that step, at the drifted state.
   virtual bool reads_state(const Simulation& /*simulation*/, std::int64_t /*step*/) const {
     return true;
   }
