@@ -280,8 +280,9 @@ void expect_both_ways_give_the_same_bits(std::initializer_list<int> sizes,
 }
 
 // The block gather reads each particle's kinematics from the records (below
-// set_kinematics_records_below's limit, 0 by default) or from the particle arrays: both must give
-// the same bits, on the small packing and on the large one, which also prefetches the records.
+// set_kinematics_records_below's limit, 2^19 particles by default) or from the particle arrays:
+// both must give the same bits, on the small packing and on the large one, which also prefetches
+// the records.
 TEST(PairKernelSimd, RecordsAndParticleArraysGiveTheSameBits) {
   expect_both_ways_give_the_same_bits({9, 33}, set_kinematics_records_below,
                                       [](int /*per_axis*/, const PassResult& /*from_arrays*/) {});
@@ -304,7 +305,7 @@ TEST(PairKernelSimd, StreamedAndCachedSlotsGiveTheSameBits) {
 // complete_step() (a decomposed run's step) leaves the pass to copy them from the particle arrays.
 // Both must move every particle alike, bit for bit, through rebuilds that reorder the particles
 // in memory: a record left over from before a rebuild would give another particle's kinematics.
-// The records are off by default, so the test turns them on at every size (restored on exit).
+// The test turns the records on at every size (restored on exit), whatever the default limit.
 TEST(PairKernelSimd, RecordsWrittenByTheSweepMatchRecordsCopiedByThePass) {
   struct RecordsOn {
     std::size_t limit = set_kinematics_records_below(std::numeric_limits<std::size_t>::max());

@@ -136,6 +136,63 @@ HWY_INLINE void broadcast_row(const Particles& p, PairBlock& b, std::uint32_t i,
   }
 }
 
+#if HWY_TARGET != HWY_SCALAR
+/// The quadruples at @p records + 4 @p index[l], one per lane l, as four vectors of their first,
+/// second, third and fourth values, transposed in registers. Two or more lanes: pairs of lanes
+/// interleaved by 128-bit blocks, then the blocks regrouped in lane order.
+template <class D>
+HWY_INLINE void load_transposed(D d, const double* HWY_RESTRICT records,
+                                const std::uint32_t* HWY_RESTRICT index, hn::Vec<D>& first,
+                                hn::Vec<D>& second, hn::Vec<D>& third, hn::Vec<D>& fourth) {
+  const auto at = [&](std::size_t l) { return records + 4 * std::size_t{index[l]}; };
+  if constexpr (hn::MaxLanes(d) == 2) {
+    const hn::Vec<D> front0 = hn::LoadU(d, at(0)), back0 = hn::LoadU(d, at(0) + 2);
+    const hn::Vec<D> front1 = hn::LoadU(d, at(1)), back1 = hn::LoadU(d, at(1) + 2);
+    first = hn::InterleaveLower(d, front0, front1);
+    second = hn::InterleaveUpper(d, front0, front1);
+    third = hn::InterleaveLower(d, back0, back1);
+    fourth = hn::InterleaveUpper(d, back0, back1);
+  } else if constexpr (hn::MaxLanes(d) == 4) {
+    const hn::Vec<D> r0 = hn::LoadU(d, at(0)), r1 = hn::LoadU(d, at(1));
+    const hn::Vec<D> r2 = hn::LoadU(d, at(2)), r3 = hn::LoadU(d, at(3));
+    const hn::Vec<D> low01 = hn::InterleaveLower(d, r0, r1);   // (a0 a1)(c0 c1)
+    const hn::Vec<D> high01 = hn::InterleaveUpper(d, r0, r1);  // (b0 b1)(d0 d1)
+    const hn::Vec<D> low23 = hn::InterleaveLower(d, r2, r3);
+    const hn::Vec<D> high23 = hn::InterleaveUpper(d, r2, r3);
+    first = hn::ConcatLowerLower(d, low23, low01);
+    third = hn::ConcatUpperUpper(d, low23, low01);
+    second = hn::ConcatLowerLower(d, high23, high01);
+    fourth = hn::ConcatUpperUpper(d, high23, high01);
+  } else {
+#if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3
+    static_assert(hn::MaxLanes(d) == 8);
+    const auto two = [&](std::size_t low, std::size_t high) HWY_ATTR {
+      return _mm512_insertf64x4(_mm512_castpd256_pd512(_mm256_loadu_pd(at(low))),
+                                _mm256_loadu_pd(at(high)), 1);
+    };
+    // Records 0 and 2 in one vector, 1 and 3 in the next: their interleaves hold lanes (0, 1)
+    // and (2, 3) in the blocks that the regrouping then takes in order.
+    const __m512d r02 = two(0, 2), r13 = two(1, 3), r46 = two(4, 6), r57 = two(5, 7);
+    const __m512d low_0123 = _mm512_unpacklo_pd(r02, r13);   // (a0 a1)(c0 c1)(a2 a3)(c2 c3)
+    const __m512d high_0123 = _mm512_unpackhi_pd(r02, r13);  // (b0 b1)(d0 d1)(b2 b3)(d2 d3)
+    const __m512d low_4567 = _mm512_unpacklo_pd(r46, r57);
+    const __m512d high_4567 = _mm512_unpackhi_pd(r46, r57);
+    first.raw = _mm512_shuffle_f64x2(low_0123, low_4567, _MM_SHUFFLE(2, 0, 2, 0));
+    third.raw = _mm512_shuffle_f64x2(low_0123, low_4567, _MM_SHUFFLE(3, 1, 3, 1));
+    second.raw = _mm512_shuffle_f64x2(high_0123, high_4567, _MM_SHUFFLE(2, 0, 2, 0));
+    fourth.raw = _mm512_shuffle_f64x2(high_0123, high_4567, _MM_SHUFFLE(3, 1, 3, 1));
+#else
+    static_assert(hn::MaxLanes(d) == 0, "load_transposed: no transposition for these lanes");
+#endif
+  }
+}
+
+/// Whether load_transposed serves the lanes of @p d: two, four, or eight on x86.
+template <class D>
+constexpr bool kTransposes = hn::MaxLanes(D()) == 2 || hn::MaxLanes(D()) == 4 ||
+                             (HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3 && hn::MaxLanes(D()) == 8);
+#endif  // HWY_TARGET != HWY_SCALAR
+
 /// The block's differences x_j - x_i + 0 (before shifts) and v_j - v_i, r_j and m_j from the
 /// kinematics records: each pair's two records copied into four arrays of (x, y, z, r) and
 /// (vx, vy, vz, m) quadruples, which LoadInterleaved4 takes into lanes. Lanes past @p count take
@@ -146,6 +203,46 @@ HWY_INLINE void pack_kinematics(const detail::LanePassArgs& a, PairBlock& b, std
   const std::uint32_t* HWY_RESTRICT second = a.list->seconds() + first_k;
   const double* HWY_RESTRICT positions = a.kinematics;
   const double* HWY_RESTRICT velocities = a.kinematics + 4 * a.particles->size();
+#if HWY_TARGET != HWY_SCALAR  // one lane: the copy below is the transposition
+  using D = hn::ScalableTag<double>;
+  if constexpr (kTransposes<D>) {
+    // A vector of pairs at a time, transposed in registers. Copied through memory, each record
+    // went in as quarter- or half-vector stores and came back as whole vectors, which the store
+    // buffer cannot forward. The same values: x_j - x_i + 0 as below.
+    const D d;
+    constexpr std::uint32_t kLanes = static_cast<std::uint32_t>(hn::MaxLanes(d));
+    const auto zero = hn::Zero(d);
+    for (std::uint32_t s = 0; s < count; s += kLanes) {
+      const std::uint32_t* HWY_RESTRICT is = first + s;
+      const std::uint32_t* HWY_RESTRICT js = second + s;
+      std::uint32_t tail_i[kLanes], tail_j[kLanes];
+      if (s + kLanes > count) {
+        // The last lanes repeat the block's last pair, so that every index read is a pair's.
+        for (std::uint32_t l = 0; l < kLanes; ++l) {
+          tail_i[l] = first[std::min(s + l, count - 1)];
+          tail_j[l] = second[std::min(s + l, count - 1)];
+        }
+        is = tail_i;
+        js = tail_j;
+      }
+      hn::Vec<D> xi, yi, zi, unused, xj, yj, zj, rj;
+      load_transposed(d, positions, is, xi, yi, zi, unused);
+      load_transposed(d, positions, js, xj, yj, zj, rj);
+      hn::Store(hn::Add(hn::Sub(xj, xi), zero), d, b.dx + s);
+      hn::Store(hn::Add(hn::Sub(yj, yi), zero), d, b.dy + s);
+      hn::Store(hn::Add(hn::Sub(zj, zi), zero), d, b.dz + s);
+      hn::Store(rj, d, b.rj + s);
+      hn::Vec<D> vxi, vyi, vzi, vxj, vyj, vzj, mj;
+      load_transposed(d, velocities, is, vxi, vyi, vzi, unused);
+      load_transposed(d, velocities, js, vxj, vyj, vzj, mj);
+      hn::Store(hn::Sub(vxj, vxi), d, b.dvx + s);
+      hn::Store(hn::Sub(vyj, vyi), d, b.dvy + s);
+      hn::Store(hn::Sub(vzj, vzi), d, b.dvz + s);
+      hn::Store(mj, d, b.mj + s);
+    }
+    return;
+  }
+#endif
   HWY_ALIGN double position_i[4 * kLaneBlock], position_j[4 * kLaneBlock];
   HWY_ALIGN double velocity_i[4 * kLaneBlock], velocity_j[4 * kLaneBlock];
   for (std::uint32_t s = 0; s < count; ++s) {
@@ -810,13 +907,15 @@ std::vector<LanePairConstants> lane_pair_constants(const Scene& scene) {
 constexpr std::size_t kPrefetchParticles = 32768;
 
 namespace {
-/// set_kinematics_records_below's limit: 0, the records never read by default. They cost 64 B a
-/// particle and the sweep's stores, and no longer pay at any size measured: whole runs of the
-/// peer lattice, one thread, alternating, without them against with them 0.93 at 20 800 spheres
-/// (median of 8 rounds, faster in all; 0.91-0.96 on two threads), 0.94 at 4 693 (6 rounds);
-/// bench_step RecordsPaired at 997 477 spheres 1.09-1.11 (0.90 before the slots were streamed).
-/// Kept selectable, with its identity test, for the benchmarks that compare the two gathers.
-std::atomic<std::size_t> records_below{0};
+/// set_kinematics_records_below's limit: the records are read below 2^19 particles. Transposed
+/// in registers (load_transposed) they pay at every size measured on this Zen 5: bench_step
+/// RecordsPaired, one thread, 0.90 at 1 300 and 20 800 spheres, 0.97 at 130 000, 0.99 at 997 477;
+/// whole runs of the 20 800 peer lattice 0.92 (8 alternating rounds, 0.88-0.93) on AVX-512,
+/// 0.92-0.94 on AVX2, 0.99 on SSE4. Copied through memory and read back as vectors, as before, they
+/// lost (0.96 at 20 800 on AVX-512 here, 1.01-1.03 on AVX2, 1.05 on SSE4; whole runs on the Zen 4
+/// of earlier sessions 1.08). From 2^19 on their 64 B a particle (13 % of a step's memory) would
+/// buy about 1 % and cost the memory target of 500 B a particle at 10^6.
+std::atomic<std::size_t> records_below{std::size_t{1} << 19};
 
 /// Whether a pass over @p particles particles reads kinematics records (the sweep then writes
 /// them).

@@ -69,8 +69,8 @@ struct LanePairConstants {
 std::vector<LanePairConstants> lane_pair_constants(const Scene& scene);
 
 /// What the SIMD pass keeps from call to call: below set_kinematics_records_below's limit (by
-/// default none: measured slower at every size, pair_kernel_simd.cpp), each particle's position,
-/// radius, velocity and mass as two quadruples, which the block gather copies with two loads
+/// default 2^19 particles, pair_kernel_simd.cpp), each particle's position, radius, velocity and
+/// mass as two quadruples, which the block gather transposes into lanes with a load per quadruple
 /// where it reads eight arrays, written by the opening sweep (records_for_sweep) or copied by the
 /// pass.
 struct LanePassScratch {
@@ -82,7 +82,7 @@ struct LanePassScratch {
 };
 
 /// Runs from @p particles particles on read the particle arrays instead of kinematics records
-/// (LanePassScratch), which cost 64 B a particle (default 0: the arrays at every size); returns
+/// (LanePassScratch), which cost 64 B a particle (default 2^19); returns
 /// the previous limit. Process-wide, for tests and benchmarks: set it between steps. Both ways
 /// give the same bytes.
 std::size_t set_kinematics_records_below(std::size_t particles);
