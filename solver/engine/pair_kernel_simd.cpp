@@ -45,6 +45,9 @@ struct LanePassArgs {
   /// (x, y, z, r) of every particle and then (vx, vy, vz, m) of every particle, four doubles
   /// each (FillKinematics), or null: the block gather then reads the particle arrays.
   const double* kinematics;
+  /// (wx, wy, wz, 0) of every particle after those (records_hold_spins), or null: the block
+  /// gather reads the spin arrays.
+  const double* spins;
   /// Whether the lanes write the force slots (F, n x F_t, delta) with non-temporal stores
   /// (set_stream_pair_slots_from).
   bool stream_slots;
@@ -197,12 +200,14 @@ constexpr bool kTransposes = hn::MaxLanes(D()) == 2 || hn::MaxLanes(D()) == 4 ||
 /// kinematics records: each pair's two records copied into four arrays of (x, y, z, r) and
 /// (vx, vy, vz, m) quadruples, which LoadInterleaved4 takes into lanes. Lanes past @p count take
 /// zeros, and pad_block overwrites what they give.
+template <bool kFriction>
 HWY_INLINE void pack_kinematics(const detail::LanePassArgs& a, PairBlock& b, std::uint32_t first_k,
                                 std::uint32_t count) {
   const std::uint32_t* HWY_RESTRICT first = b.first;
   const std::uint32_t* HWY_RESTRICT second = a.list->seconds() + first_k;
   const double* HWY_RESTRICT positions = a.kinematics;
   const double* HWY_RESTRICT velocities = a.kinematics + 4 * a.particles->size();
+  [[maybe_unused]] const double* HWY_RESTRICT spins = a.spins;
 #if HWY_TARGET != HWY_SCALAR  // one lane: the copy below is the transposition
   using D = hn::ScalableTag<double>;
   if constexpr (kTransposes<D>) {
@@ -239,6 +244,13 @@ HWY_INLINE void pack_kinematics(const detail::LanePassArgs& a, PairBlock& b, std
       hn::Store(hn::Sub(vyj, vyi), d, b.dvy + s);
       hn::Store(hn::Sub(vzj, vzi), d, b.dvz + s);
       hn::Store(mj, d, b.mj + s);
+      if (kFriction && spins != nullptr) {
+        hn::Vec<D> wxj, wyj, wzj;
+        load_transposed(d, spins, js, wxj, wyj, wzj, unused);
+        hn::Store(wxj, d, b.wjx + s);
+        hn::Store(wyj, d, b.wjy + s);
+        hn::Store(wzj, d, b.wjz + s);
+      }
     }
     return;
   }
@@ -296,7 +308,7 @@ HWY_NOINLINE void pack_block(const detail::LanePassArgs& a, PairBlock& b, std::u
   // The same for every pair of the call: a branch the predictor never misses.
   const bool prefetch_next = next != nullptr;
   if (a.kinematics != nullptr) {
-    pack_kinematics(a, b, first_k, count);
+    pack_kinematics<kFriction>(a, b, first_k, count);
   } else {
     const double* HWY_RESTRICT x = p.x.data();
     const double* HWY_RESTRICT y = p.y.data();
@@ -365,12 +377,13 @@ HWY_NOINLINE void pack_block(const detail::LanePassArgs& a, PairBlock& b, std::u
       b.dvz[s] = vz[second[s]] - vz[first[s]];
     }
   }
-  if constexpr (kFriction) {
+  // Where the records hold them, pack_kinematics has taken j's spins (but for one lane).
+  if (kFriction && (a.spins == nullptr || HWY_TARGET == HWY_SCALAR)) {
     const double* HWY_RESTRICT wx = p.wx.data();
     const double* HWY_RESTRICT wy = p.wy.data();
     const double* HWY_RESTRICT wz = p.wz.data();
     for (std::uint32_t s = 0; s < count; ++s) {
-      if (prefetch_next) {  // never with records: LanePass prefetched their spins
+      if (prefetch_next) {  // never with records: LanePass prefetched them
         __builtin_prefetch(wx + next[s]);
         __builtin_prefetch(wy + next[s]);
         __builtin_prefetch(wz + next[s]);
@@ -694,7 +707,9 @@ ContactSummary LanePass(const detail::LanePassArgs& a, std::size_t first_row,
           const std::uint32_t j = js[s];
           __builtin_prefetch(a.kinematics + 4 * std::size_t{j});
           __builtin_prefetch(a.kinematics + 4 * (p.size() + j));
-          if constexpr (kFriction) {
+          if (a.spins != nullptr) {
+            __builtin_prefetch(a.spins + 4 * std::size_t{j});
+          } else if constexpr (kFriction) {
             __builtin_prefetch(p.wx.data() + j);
             __builtin_prefetch(p.wy.data() + j);
             __builtin_prefetch(p.wz.data() + j);
@@ -746,12 +761,28 @@ ContactSummary LanePass(const detail::LanePassArgs& a, std::size_t first_row,
 }
 
 /// Writes the quadruples of particles [@p first, @p end) of LanePassArgs::kinematics, at
-/// @p records (8 n doubles): (x, y, z, r) at records + 4 i, (vx, vy, vz, m) at records + 4 n + 4 i.
-void FillKinematics(const Particles& p, std::size_t first, std::size_t end, double* records) {
+/// @p records (8 n doubles, 12 n with @p spins): (x, y, z, r) at records + 4 i, (vx, vy, vz, m) at
+/// records + 4 n + 4 i and with @p spins (wx, wy, wz, 0) at records + 8 n + 4 i.
+void FillKinematics(const Particles& p, std::size_t first, std::size_t end, double* records,
+                    bool spins) {
   const hn::ScalableTag<double> d;
   const std::size_t lanes = hn::Lanes(d);
   double* HWY_RESTRICT positions = records;
   double* HWY_RESTRICT velocities = records + 4 * p.size();
+  if (spins) {
+    double* HWY_RESTRICT turning = records + 8 * p.size();
+    std::size_t i = first;
+    for (; i + lanes <= end; i += lanes) {
+      hn::StoreInterleaved4(hn::LoadU(d, p.wx.data() + i), hn::LoadU(d, p.wy.data() + i),
+                            hn::LoadU(d, p.wz.data() + i), hn::Zero(d), d, turning + 4 * i);
+    }
+    for (; i < end; ++i) {
+      turning[4 * i] = p.wx[i];
+      turning[4 * i + 1] = p.wy[i];
+      turning[4 * i + 2] = p.wz[i];
+      turning[4 * i + 3] = 0.0;
+    }
+  }
   std::size_t i = first;
   for (; i + lanes <= end; i += lanes) {
     hn::StoreInterleaved4(hn::LoadU(d, p.x.data() + i), hn::LoadU(d, p.y.data() + i),
@@ -917,6 +948,12 @@ namespace {
 /// buy about 1 % and cost the memory target of 500 B a particle at 10^6.
 std::atomic<std::size_t> records_below{std::size_t{1} << 19};
 
+/// Doubles a particle's records take: position and radius, velocity and mass, and where they
+/// hold them its spin.
+std::size_t record_values(bool spins) {
+  return spins ? 12 : 8;
+}
+
 /// Whether a pass over @p particles particles reads kinematics records (the sweep then writes
 /// them).
 bool reads_records(std::size_t particles) {
@@ -943,9 +980,13 @@ std::size_t set_kinematics_records_below(std::size_t particles) {
   return records_below.exchange(particles, std::memory_order_relaxed);
 }
 
-double* records_for_sweep(LanePassScratch& scratch, std::size_t particles) {
+bool records_hold_spins(bool friction) {
+  return friction && simd_target_in_use() == SimdTarget::kAvx512;
+}
+
+double* records_for_sweep(LanePassScratch& scratch, std::size_t particles, bool friction) {
   if (!reads_records(particles)) return nullptr;
-  scratch.kinematics.resize(8 * particles);
+  scratch.kinematics.resize(record_values(records_hold_spins(friction)) * particles);
   return scratch.kinematics.data();
 }
 
@@ -982,15 +1023,17 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
     // In cache by default (below the count that prefetches): each pair then reads two quadruples
     // of each of its particles instead of eight arrays, written by the opening sweep or else copied
     // here. A region of its own: a thread's pairs read particles of the other threads' shares.
-    if (!scratch->current || scratch->kinematics.size() != 8 * n) {
-      scratch->kinematics.resize(8 * n);
+    const std::size_t values = record_values(records_hold_spins(scene.friction)) * n;
+    if (!scratch->current || scratch->kinematics.size() != values) {
+      scratch->kinematics.resize(values);
       double* to = scratch->kinematics.data();
       const int shares = split->threads();
       const auto fill = HWY_DYNAMIC_DISPATCH(FillKinematics);
 #pragma omp parallel num_threads(shares) if (shares > 1)
       for (int t = omp_get_thread_num(); t < shares; t += omp_get_num_threads()) {
         fill(p, std::min(n, split->begin(t) * kPairPassChunk),
-             std::min(n, split->begin(t + 1) * kPairPassChunk), to);
+             std::min(n, split->begin(t + 1) * kPairPassChunk), to,
+             records_hold_spins(scene.friction));
       }
     }
     kinematics = scratch->kinematics.data();
@@ -998,23 +1041,25 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
     StaggeredVector<double>().swap(scratch->kinematics);  // a run that grew past the threshold
   }
   scratch->current = false;  // the particles move on after this pass
-  const detail::LanePassArgs args{&p,
-                                  &scene,
-                                  &list,
-                                  constants.data(),
-                                  &criterion_met,
-                                  &out,
-                                  &history,
-                                  constants.size() == 1,
-                                  !out.roll_x.empty(),
-                                  uniform_criterion,
-                                  shift_x,
-                                  shift_y,
-                                  shift_z,
-                                  counted,
-                                  p.size() >= kPrefetchParticles,
-                                  kinematics,
-                                  n >= stream_slots_from.load(std::memory_order_relaxed)};
+  const detail::LanePassArgs args{
+      &p,
+      &scene,
+      &list,
+      constants.data(),
+      &criterion_met,
+      &out,
+      &history,
+      constants.size() == 1,
+      !out.roll_x.empty(),
+      uniform_criterion,
+      shift_x,
+      shift_y,
+      shift_z,
+      counted,
+      p.size() >= kPrefetchParticles,
+      kinematics,
+      kinematics != nullptr && records_hold_spins(scene.friction) ? kinematics + 8 * n : nullptr,
+      n >= stream_slots_from.load(std::memory_order_relaxed)};
   const auto pass = scene.friction ? HWY_DYNAMIC_DISPATCH(LanePassWithFriction)
                                    : HWY_DYNAMIC_DISPATCH(LanePassWithoutFriction);
   return split->run(

@@ -70,11 +70,11 @@ std::vector<LanePairConstants> lane_pair_constants(const Scene& scene);
 
 /// What the SIMD pass keeps from call to call: below set_kinematics_records_below's limit (by
 /// default 2^19 particles, pair_kernel_simd.cpp), each particle's position, radius, velocity and
-/// mass as two quadruples, which the block gather transposes into lanes with a load per quadruple
-/// where it reads eight arrays, written by the opening sweep (records_for_sweep) or copied by the
-/// pass.
+/// mass as two quadruples and, where records_hold_spins, its spin as a third, which the block
+/// gather transposes into lanes with a load per quadruple where it reads eleven arrays, written by
+/// the opening sweep (records_for_sweep) or copied by the pass.
 struct LanePassScratch {
-  StaggeredVector<double> kinematics;  ///< 8 values per particle (pair_kernel_simd.cpp)
+  StaggeredVector<double> kinematics;  ///< 8 values per particle, 12 with friction
   /// Whether @c kinematics holds the particles' kinematics as they are now: set by whoever wrote
   /// them outside the pass (the opening sweep), cleared by the pass that reads them and by
   /// anything that moves, reorders, adds or removes particles in between.
@@ -82,8 +82,8 @@ struct LanePassScratch {
 };
 
 /// Runs from @p particles particles on read the particle arrays instead of kinematics records
-/// (LanePassScratch), which cost 64 B a particle (default 2^19); returns
-/// the previous limit. Process-wide, for tests and benchmarks: set it between steps. Both ways
+/// (LanePassScratch), which cost 64 B a particle, 96 B with friction (default 2^19); returns the
+/// previous limit. Process-wide, for tests and benchmarks: set it between steps. Both ways
 /// give the same bytes.
 std::size_t set_kinematics_records_below(std::size_t particles);
 
@@ -95,8 +95,14 @@ std::size_t set_stream_pair_slots_from(std::size_t particles);
 
 /// Where the opening sweep of @p particles particles can write the kinematics records of the
 /// next pass (SweepArrays::records), sized for them, or null when the pass reads none at this
-/// count (it then reads the particle arrays). The caller sets @c current once they are written.
-double* records_for_sweep(LanePassScratch& scratch, std::size_t particles);
+/// count (it then reads the particle arrays); with @p friction they may hold the spins too
+/// (records_hold_spins). The caller sets @c current once they are written.
+double* records_for_sweep(LanePassScratch& scratch, std::size_t particles, bool friction);
+
+/// Whether the kinematics records of a run with @p friction hold the spins too, (wx, wy, wz, 0)
+/// after the velocities: with friction on AVX-512, where the gather transposes eight of them at a
+/// time (the 20 800 peer lattice 0.97 of the time; on AVX2 and SSE4 1.00-1.04, left out).
+bool records_hold_spins(bool friction);
 
 /// Pass 1 as compute_pair_forces<kFriction = scene.friction, kModels = false> with the Hertz +
 /// bond law, in lanes of the selected target. Requires simd_pass_applies(scene). @p counted as

@@ -13,6 +13,14 @@ HWY_BEFORE_NAMESPACE();
 namespace bondem::HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
+/// Writes the spins of the lanes at @p i into SweepArrays::spin_records, if any.
+template <class D>
+HWY_INLINE void store_spin_records(D d, const SweepArrays& a, std::size_t i, hn::Vec<D> wx,
+                                   hn::Vec<D> wy, hn::Vec<D> wz) {
+  if (a.spin_records == nullptr) return;
+  hn::StoreInterleaved4(wx, wy, wz, hn::Zero(d), d, a.spin_records + 4 * i);
+}
+
 /// w += (dt/2) T / (0.4 m r^2) for the lanes at @p i: Particles::inverse_inertia's
 /// operations, then the kick.
 template <class D>
@@ -20,9 +28,13 @@ HWY_INLINE void kick_spin_lanes(D d, const SweepArrays& a, hn::Vec<D> half_dt, s
   const auto r = hn::LoadU(d, a.radius + i);
   const auto inertia = hn::Set(d, 0.4) * hn::LoadU(d, a.mass + i) * r * r;
   const auto kick = half_dt * (hn::Set(d, 1.0) / inertia);
-  hn::StoreU(hn::LoadU(d, a.wx + i) + kick * hn::LoadU(d, a.tx + i), d, a.wx + i);
-  hn::StoreU(hn::LoadU(d, a.wy + i) + kick * hn::LoadU(d, a.ty + i), d, a.wy + i);
-  hn::StoreU(hn::LoadU(d, a.wz + i) + kick * hn::LoadU(d, a.tz + i), d, a.wz + i);
+  const auto wx = hn::LoadU(d, a.wx + i) + kick * hn::LoadU(d, a.tx + i);
+  const auto wy = hn::LoadU(d, a.wy + i) + kick * hn::LoadU(d, a.ty + i);
+  const auto wz = hn::LoadU(d, a.wz + i) + kick * hn::LoadU(d, a.tz + i);
+  hn::StoreU(wx, d, a.wx + i);
+  hn::StoreU(wy, d, a.wy + i);
+  hn::StoreU(wz, d, a.wz + i);
+  store_spin_records(d, a, i, wx, wy, wz);
 }
 
 /// v += (dt/2) F/m for the lanes at @p i.
@@ -180,9 +192,13 @@ HWY_INLINE void close_open_spin_lanes(D d, const SweepArrays& a, hn::Vec<D> half
   const auto inertia = hn::Set(d, 0.4) * hn::LoadU(d, a.mass + i) * r * r;
   const auto spin_kick = half_dt * (hn::Set(d, 1.0) / inertia);
   const auto tx = hn::LoadU(d, a.tx + i), ty = hn::LoadU(d, a.ty + i), tz = hn::LoadU(d, a.tz + i);
-  hn::StoreU((hn::LoadU(d, a.wx + i) + spin_kick * tx) + spin_kick * tx, d, a.wx + i);
-  hn::StoreU((hn::LoadU(d, a.wy + i) + spin_kick * ty) + spin_kick * ty, d, a.wy + i);
-  hn::StoreU((hn::LoadU(d, a.wz + i) + spin_kick * tz) + spin_kick * tz, d, a.wz + i);
+  const auto wx = (hn::LoadU(d, a.wx + i) + spin_kick * tx) + spin_kick * tx;
+  const auto wy = (hn::LoadU(d, a.wy + i) + spin_kick * ty) + spin_kick * ty;
+  const auto wz = (hn::LoadU(d, a.wz + i) + spin_kick * tz) + spin_kick * tz;
+  hn::StoreU(wx, d, a.wx + i);
+  hn::StoreU(wy, d, a.wy + i);
+  hn::StoreU(wz, d, a.wz + i);
+  store_spin_records(d, a, i, wx, wy, wz);
 }
 
 SweepResult ClosingOpeningSweep(const SweepArrays& a, double dt, std::size_t first,

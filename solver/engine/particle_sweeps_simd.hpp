@@ -29,6 +29,9 @@ struct SweepArrays {
   /// kinematics records (LanePassScratch), written while the values are in registers.
   double* records = nullptr;
   std::size_t record_count = 0;  ///< the particles the records hold
+  /// Where non-null (with wx), the opening sweep also writes each particle's new (wx, wy, wz, 0)
+  /// at spin_records + 4 i (records_hold_spins).
+  double* spin_records = nullptr;
 };
 
 /// The opening sweep over particles [@p first, @p end): v += (dt/2) F/m, x += dt v (the tracked

@@ -421,7 +421,7 @@ SweepArrays Stepper::sweep_arrays(bool write_records) {
   // The SIMD pass's records, written by the sweep while each value is in a register: a sweep of
   // its own over eight arrays and a parallel region less per step.
   double* const records = write_records && !lane_constants_.empty()
-                              ? records_for_sweep(lane_scratch_, p.size())
+                              ? records_for_sweep(lane_scratch_, p.size(), scene_.friction)
                               : nullptr;
   const bool spin = scene_.friction;
   const bool tracked = p.displacement_tracked;
@@ -452,7 +452,9 @@ SweepArrays Stepper::sweep_arrays(bool write_records) {
           // the whole run's largest, however far their ghosts drift from their owners meanwhile.
           .counted = counted_.empty() ? nullptr : counted_.data(),
           .records = records,
-          .record_count = records != nullptr ? p.size() : 0};
+          .record_count = records != nullptr ? p.size() : 0,
+          .spin_records =
+              records != nullptr && records_hold_spins(spin) ? records + 8 * p.size() : nullptr};
 }
 
 double Stepper::drift(double dt, bool write_records) {
