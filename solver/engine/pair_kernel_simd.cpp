@@ -211,9 +211,10 @@ HWY_INLINE void pack_kinematics(const detail::LanePassArgs& a, PairBlock& b, std
 #if HWY_TARGET != HWY_SCALAR  // one lane: the copy below is the transposition
   using D = hn::ScalableTag<double>;
   if constexpr (kTransposes<D>) {
-    // A vector of pairs at a time, transposed in registers. Copied through memory, each record
-    // went in as quarter- or half-vector stores and came back as whole vectors, which the store
-    // buffer cannot forward. The same values: x_j - x_i + 0 as below.
+    // A vector of pairs at a time, transposed in registers: copied through memory (the path
+    // below), each record went in as quarter- or half-vector stores and came back in whole
+    // vectors, likely loads the store buffer cannot forward; the 20 800 peer lattice 0.92 of the
+    // time on AVX-512 and AVX2. The same values: x_j - x_i + 0 as below.
     const D d;
     constexpr std::uint32_t kLanes = static_cast<std::uint32_t>(hn::MaxLanes(d));
     const auto zero = hn::Zero(d);
