@@ -68,7 +68,8 @@ constexpr std::uint32_t kLaneBlock = 64;
 /// Lanes past the block's last pair hold a pair far apart (pad_block) and are masked out.
 struct PairBlock {
   static constexpr int kConstants = 12;
-  // The pair's kinematics, gathered by a scalar loop (cheaper than vector gathers here).
+  // The pair's kinematics, gathered by scalar loads or transposed from the records (both cheaper
+  // than vector gathers here).
   /// i, with room for a vector store past the block (broadcast_row fills it by rows); j is read
   /// from the list in place.
   std::uint32_t first[kLaneBlock + HWY_MAX_BYTES / sizeof(std::uint32_t)];
@@ -196,10 +197,11 @@ constexpr bool kTransposes = hn::MaxLanes(D()) == 2 || hn::MaxLanes(D()) == 4 ||
                              (HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3 && hn::MaxLanes(D()) == 8);
 #endif  // HWY_TARGET != HWY_SCALAR
 
-/// The block's differences x_j - x_i + 0 (before shifts) and v_j - v_i, r_j and m_j from the
-/// kinematics records: each pair's two records copied into four arrays of (x, y, z, r) and
-/// (vx, vy, vz, m) quadruples, which LoadInterleaved4 takes into lanes. Lanes past @p count take
-/// zeros, and pad_block overwrites what they give.
+/// The block's differences x_j - x_i + 0 (before shifts) and v_j - v_i, r_j and m_j, and where
+/// LanePassArgs::spins is set j's spin, from the kinematics records: transposed into lanes in
+/// registers (load_transposed) on every target with two or more lanes; with one, each pair's two
+/// records copied into four arrays of quadruples, which LoadInterleaved4 takes into lanes. Lanes
+/// past @p count repeat the last pair (or take zeros), and pad_block overwrites what they give.
 template <bool kFriction>
 HWY_INLINE void pack_kinematics(const detail::LanePassArgs& a, PairBlock& b, std::uint32_t first_k,
                                 std::uint32_t count) {

@@ -74,7 +74,7 @@ std::vector<LanePairConstants> lane_pair_constants(const Scene& scene);
 /// gather transposes into lanes with a load per quadruple where it reads eleven arrays, written by
 /// the opening sweep (records_for_sweep) or copied by the pass.
 struct LanePassScratch {
-  StaggeredVector<double> kinematics;  ///< 8 values per particle, 12 with friction
+  StaggeredVector<double> kinematics;  ///< 8 values a particle, 12 where records_hold_spins
   /// Whether @c kinematics holds the particles' kinematics as they are now: set by whoever wrote
   /// them outside the pass (the opening sweep), cleared by the pass that reads them and by
   /// anything that moves, reorders, adds or removes particles in between.
@@ -82,9 +82,9 @@ struct LanePassScratch {
 };
 
 /// Runs from @p particles particles on read the particle arrays instead of kinematics records
-/// (LanePassScratch), which cost 64 B a particle, 96 B with friction (default 2^19); returns the
-/// previous limit. Process-wide, for tests and benchmarks: set it between steps. Both ways
-/// give the same bytes.
+/// (LanePassScratch), which cost 64 B a particle, 96 B where they hold the spins (default 2^19);
+/// returns the previous limit. Process-wide, for tests and benchmarks: set it between steps. Both
+/// ways give the same bytes.
 std::size_t set_kinematics_records_below(std::size_t particles);
 
 /// Runs from @p particles particles on write the pass's force slots with non-temporal stores
@@ -101,7 +101,7 @@ double* records_for_sweep(LanePassScratch& scratch, std::size_t particles, bool 
 
 /// Whether the kinematics records of a run with @p friction hold the spins too, (wx, wy, wz, 0)
 /// after the velocities: with friction on AVX-512, where the gather transposes eight of them at a
-/// time (the 20 800 peer lattice 0.97 of the time; on AVX2 and SSE4 1.00-1.04, left out).
+/// time (the 20 800 peer lattice 0.96 of the time; on AVX2 and SSE4 1.00-1.04, left out).
 bool records_hold_spins(bool friction);
 
 /// Pass 1 as compute_pair_forces<kFriction = scene.friction, kModels = false> with the Hertz +
