@@ -764,16 +764,16 @@ ContactSummary LanePass(const detail::LanePassArgs& a, std::size_t first_row,
 }
 
 /// Writes the quadruples of particles [@p first, @p end) of LanePassArgs::kinematics, at
-/// @p records (8 n doubles, 12 n with @p spins): (x, y, z, r) at records + 4 i, (vx, vy, vz, m) at
-/// records + 4 n + 4 i and with @p spins (wx, wy, wz, 0) at records + 8 n + 4 i.
+/// @p records (8 n doubles): (x, y, z, r) at records + 4 i, (vx, vy, vz, m) at records + 4 n + 4 i;
+/// and where @p spins is set (LanePassArgs::spins), (wx, wy, wz, 0) at spins + 4 i.
 void FillKinematics(const Particles& p, std::size_t first, std::size_t end, double* records,
-                    bool spins) {
+                    double* spins) {
   const hn::ScalableTag<double> d;
   const std::size_t lanes = hn::Lanes(d);
   double* HWY_RESTRICT positions = records;
   double* HWY_RESTRICT velocities = records + 4 * p.size();
-  if (spins) {
-    double* HWY_RESTRICT turning = records + 8 * p.size();
+  if (spins != nullptr) {
+    double* HWY_RESTRICT turning = spins;
     std::size_t i = first;
     for (; i + lanes <= end; i += lanes) {
       hn::StoreInterleaved4(hn::LoadU(d, p.wx.data() + i), hn::LoadU(d, p.wy.data() + i),
@@ -951,12 +951,6 @@ namespace {
 /// buy about 1 % and cost the memory target of 500 B a particle at 10^6.
 std::atomic<std::size_t> records_below{std::size_t{1} << 19};
 
-/// Doubles a particle's records take: position and radius, velocity and mass, and where they
-/// hold them its spin.
-std::size_t record_values(bool spins) {
-  return spins ? 12 : 8;
-}
-
 /// Whether a pass over @p particles particles reads kinematics records (the sweep then writes
 /// them).
 bool reads_records(std::size_t particles) {
@@ -987,10 +981,20 @@ bool records_hold_spins(bool friction) {
   return friction && simd_target_in_use() == SimdTarget::kAvx512;
 }
 
-double* records_for_sweep(LanePassScratch& scratch, std::size_t particles, bool friction) {
-  if (!reads_records(particles)) return nullptr;
-  scratch.kinematics.resize(record_values(records_hold_spins(friction)) * particles);
-  return scratch.kinematics.data();
+namespace {
+/// @p scratch's records sized for @p particles particles of a run with @p friction, and where
+/// they lie: the position and velocity quadruples, then the spins' where records_hold_spins.
+SweepRecords size_records(LanePassScratch& scratch, std::size_t particles, bool friction) {
+  const bool spins = records_hold_spins(friction);
+  scratch.kinematics.resize((spins ? 12 : 8) * particles);
+  double* const records = scratch.kinematics.data();
+  return {records, spins ? records + 8 * particles : nullptr};
+}
+}  // namespace
+
+SweepRecords records_for_sweep(LanePassScratch& scratch, std::size_t particles, bool friction) {
+  if (!reads_records(particles)) return {};
+  return size_records(scratch, particles, friction);
 }
 
 ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const NeighborList& list,
@@ -1021,48 +1025,45 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
   split->prepare(chunks, threads_in_use(n));
   LanePassScratch own_scratch;
   if (scratch == nullptr) scratch = &own_scratch;
-  const double* kinematics = nullptr;
+  SweepRecords records;
   if (reads_records(n)) {
     // In cache by default (below the count that prefetches): each pair then reads two quadruples
     // of each of its particles instead of eight arrays, written by the opening sweep or else copied
     // here. A region of its own: a thread's pairs read particles of the other threads' shares.
-    const std::size_t values = record_values(records_hold_spins(scene.friction)) * n;
-    if (!scratch->current || scratch->kinematics.size() != values) {
-      scratch->kinematics.resize(values);
-      double* to = scratch->kinematics.data();
+    // Records of another size (another target's layout, another count) are not the sweep's.
+    const std::size_t sized_before = scratch->kinematics.size();
+    records = size_records(*scratch, n, scene.friction);
+    if (!scratch->current || scratch->kinematics.size() != sized_before) {
       const int shares = split->threads();
       const auto fill = HWY_DYNAMIC_DISPATCH(FillKinematics);
 #pragma omp parallel num_threads(shares) if (shares > 1)
       for (int t = omp_get_thread_num(); t < shares; t += omp_get_num_threads()) {
         fill(p, std::min(n, split->begin(t) * kPairPassChunk),
-             std::min(n, split->begin(t + 1) * kPairPassChunk), to,
-             records_hold_spins(scene.friction));
+             std::min(n, split->begin(t + 1) * kPairPassChunk), records.kinematics, records.spins);
       }
     }
-    kinematics = scratch->kinematics.data();
   } else {
     StaggeredVector<double>().swap(scratch->kinematics);  // a run that grew past the threshold
   }
   scratch->current = false;  // the particles move on after this pass
-  const detail::LanePassArgs args{
-      &p,
-      &scene,
-      &list,
-      constants.data(),
-      &criterion_met,
-      &out,
-      &history,
-      constants.size() == 1,
-      !out.roll_x.empty(),
-      uniform_criterion,
-      shift_x,
-      shift_y,
-      shift_z,
-      counted,
-      p.size() >= kPrefetchParticles,
-      kinematics,
-      kinematics != nullptr && records_hold_spins(scene.friction) ? kinematics + 8 * n : nullptr,
-      n >= stream_slots_from.load(std::memory_order_relaxed)};
+  const detail::LanePassArgs args{&p,
+                                  &scene,
+                                  &list,
+                                  constants.data(),
+                                  &criterion_met,
+                                  &out,
+                                  &history,
+                                  constants.size() == 1,
+                                  !out.roll_x.empty(),
+                                  uniform_criterion,
+                                  shift_x,
+                                  shift_y,
+                                  shift_z,
+                                  counted,
+                                  p.size() >= kPrefetchParticles,
+                                  records.kinematics,
+                                  records.spins,
+                                  n >= stream_slots_from.load(std::memory_order_relaxed)};
   const auto pass = scene.friction ? HWY_DYNAMIC_DISPATCH(LanePassWithFriction)
                                    : HWY_DYNAMIC_DISPATCH(LanePassWithoutFriction);
   return split->run(

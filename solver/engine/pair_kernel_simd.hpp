@@ -93,11 +93,16 @@ std::size_t set_kinematics_records_below(std::size_t particles);
 /// the same bytes.
 std::size_t set_stream_pair_slots_from(std::size_t particles);
 
-/// Where the opening sweep of @p particles particles can write the kinematics records of the
-/// next pass (SweepArrays::records), sized for them, or null when the pass reads none at this
-/// count (it then reads the particle arrays); with @p friction they may hold the spins too
-/// (records_hold_spins). The caller sets @c current once they are written.
-double* records_for_sweep(LanePassScratch& scratch, std::size_t particles, bool friction);
+/// Where the opening sweep writes the kinematics records of the next pass: null where none.
+struct SweepRecords {
+  double* kinematics = nullptr;  ///< SweepArrays::records
+  double* spins = nullptr;       ///< SweepArrays::spin_records, where records_hold_spins
+};
+
+/// Where the opening sweep of @p particles particles of a run with @p friction can write the
+/// kinematics records of the next pass, sized for them, or nulls when the pass reads none at this
+/// count (it then reads the particle arrays). The caller sets @c current once they are written.
+SweepRecords records_for_sweep(LanePassScratch& scratch, std::size_t particles, bool friction);
 
 /// Whether the kinematics records of a run with @p friction hold the spins too, (wx, wy, wz, 0)
 /// after the velocities: with friction on AVX-512, where the gather transposes eight of them at a

@@ -420,9 +420,9 @@ SweepArrays Stepper::sweep_arrays(bool write_records) {
   Particles& p = scene_.particles;
   // The SIMD pass's records, written by the sweep while each value is in a register: a sweep of
   // its own over eight arrays and a parallel region less per step.
-  double* const records = write_records && !lane_constants_.empty()
-                              ? records_for_sweep(lane_scratch_, p.size(), scene_.friction)
-                              : nullptr;
+  const SweepRecords records = write_records && !lane_constants_.empty()
+                                   ? records_for_sweep(lane_scratch_, p.size(), scene_.friction)
+                                   : SweepRecords{};
   const bool spin = scene_.friction;
   const bool tracked = p.displacement_tracked;
   return {.x = p.x.data(),
@@ -451,10 +451,9 @@ SweepArrays Stepper::sweep_arrays(bool write_records) {
           // Only the counted particles' displacements: a decomposed run's ranks then agree on
           // the whole run's largest, however far their ghosts drift from their owners meanwhile.
           .counted = counted_.empty() ? nullptr : counted_.data(),
-          .records = records,
-          .record_count = records != nullptr ? p.size() : 0,
-          .spin_records =
-              records != nullptr && records_hold_spins(spin) ? records + 8 * p.size() : nullptr};
+          .records = records.kinematics,
+          .record_count = records.kinematics != nullptr ? p.size() : 0,
+          .spin_records = records.spins};
 }
 
 double Stepper::drift(double dt, bool write_records) {
