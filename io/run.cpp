@@ -180,6 +180,10 @@ bool is_run_output(const std::string& name) {
   return is_vtk_series(name) || state_file_index(name) >= 0 || layer_file_number(name) >= 0;
 }
 
+/// Names of an earlier run's outputs moved aside (remove_stale_outputs): temporaries of this
+/// process, `.bondem_stale_<n>.tmp.<pid>`.
+constexpr std::string_view kStaleScratch = ".bondem_stale_";
+
 /// A run owns its output directory: remove what an earlier run left in it, so that every file
 /// there belongs to this run. Removed: temporaries `<output>.tmp.<pid>` of processes that no
 /// longer run (a SIGKILL during a write), and every output bondem writes (is_run_output()),
@@ -187,13 +191,17 @@ bool is_run_output(const std::string& name) {
 /// restart trims it to the checkpoint's time itself), and the state snapshots up to index
 /// @p keep_states_through (-1: none), and with @p keep_layers_through >= 0 layers.csv and the
 /// layer files up to that number (a restart trims layers.csv itself). Files bondem does not
-/// write stay.
-void remove_stale_outputs(const std::filesystem::path& directory, const std::filesystem::path& keep,
-                          bool keep_vtk_series, std::int64_t keep_states_through,
-                          std::int64_t keep_layers_through) {
+/// write stay. An output is renamed to a temporary of this process at once, which nothing of
+/// this run writes, and unlinked by the returned removal (StaleOutputRemoval), with the
+/// temporaries of dead processes.
+StaleOutputRemoval remove_stale_outputs(const std::filesystem::path& directory,
+                                        const std::filesystem::path& keep, bool keep_vtk_series,
+                                        std::int64_t keep_states_through,
+                                        std::int64_t keep_layers_through) {
   namespace fs = std::filesystem;
   std::error_code error;
   std::vector<fs::path> stale;
+  std::vector<fs::path> dead_temporaries;  // names no live process writes: unlinked as they are
   for (const fs::directory_entry& entry : fs::directory_iterator(directory, error)) {
     if (!entry.is_regular_file(error)) continue;
     const std::string name = entry.path().filename().string();
@@ -204,14 +212,15 @@ void remove_stale_outputs(const std::filesystem::path& directory, const std::fil
       const bool digits =
           !pid.empty() && pid.size() < 10 &&
           std::all_of(pid.begin(), pid.end(), [](char c) { return c >= '0' && c <= '9'; });
-      if (!digits || !(is_run_output(target) || target == ".bondem_probe" ||
-                       target.rfind(kLastGoodScratch, 0) == 0)) {
+      if (!digits ||
+          !(is_run_output(target) || target == ".bondem_probe" ||
+            target.rfind(kLastGoodScratch, 0) == 0 || target.rfind(kStaleScratch, 0) == 0)) {
         continue;
       }
       const auto owner = static_cast<pid_t>(std::stol(pid));
       // A live process may be writing it (another run aimed at the same directory).
       const bool alive = owner == ::getpid() || ::kill(owner, 0) == 0 || errno != ESRCH;
-      if (!alive) stale.push_back(entry.path());
+      if (!alive) dead_temporaries.push_back(entry.path());
       continue;
     }
     if (!is_run_output(name)) continue;
@@ -233,12 +242,19 @@ void remove_stale_outputs(const std::filesystem::path& directory, const std::fil
     throw std::runtime_error(directory.string() +
                              ": cannot list the output directory: " + error.message());
   }
+  std::vector<fs::path> moved = std::move(dead_temporaries);
+  const std::string pid = std::to_string(::getpid());
   for (const fs::path& path : stale) {
-    if (!fs::remove(path, error) && error) {
+    fs::path aside =
+        directory / (std::string(kStaleScratch) + std::to_string(moved.size()) + ".tmp." + pid);
+    fs::rename(path, aside, error);
+    if (error) {
       throw std::runtime_error(path.string() +
                                ": cannot remove an earlier run's output: " + error.message());
     }
+    moved.push_back(std::move(aside));
   }
+  return StaleOutputRemoval(std::move(moved));
 }
 
 }  // namespace
@@ -323,8 +339,17 @@ Checkpoint read_fitting_checkpoint(const Case& description, const RunOptions& op
   return restored;
 }
 
-void prepare_output_directory(const Case& description, const RunOptions& options,
-                              const RunPlan& plan) {
+StaleOutputRemoval::StaleOutputRemoval(std::vector<std::filesystem::path> moved) {
+  if (moved.empty()) return;
+  unlinking_ = std::thread([moved = std::move(moved)] {
+    // A file left (an error) is a temporary of this process: the next run removes it.
+    std::error_code ignored;
+    for (const std::filesystem::path& path : moved) std::filesystem::remove(path, ignored);
+  });
+}
+
+StaleOutputRemoval prepare_output_directory(const Case& description, const RunOptions& options,
+                                            const RunPlan& plan) {
   probe_output_directory(plan.directory, options.output_directory.empty()
                                              ? description.source + ": 'output.directory'"
                                              : "--output " + options.output_directory);
@@ -338,8 +363,8 @@ void prepare_output_directory(const Case& description, const RunOptions& options
           ? static_cast<std::int64_t>(
                 layers_through(*description.layers, description.time_step, plan.first_step))
           : -1;
-  remove_stale_outputs(plan.directory, plan.restarting ? options.restart_path : "", keep_vtk_series,
-                       keep_states, keep_layers);
+  return remove_stale_outputs(plan.directory, plan.restarting ? options.restart_path : "",
+                              keep_vtk_series, keep_states, keep_layers);
 }
 
 std::string blow_up_message(const BlowUpError& e, const Case& description, const RunPlan& plan) {
@@ -525,7 +550,7 @@ RunResult run_case(Case description, const RunOptions& options, std::ostream& lo
     stepper.emplace(scene);
   }
   check_output_fields(description, scene, history_text);
-  prepare_output_directory(description, options, plan);
+  const StaleOutputRemoval stale = prepare_output_directory(description, options, plan);
   return simulate(description, options, plan, scene, *stepper, std::move(history_text), log);
 }
 

@@ -1544,8 +1544,9 @@ RunResult run_case_distributed(Case description, const RunOptions& options, std:
     });
   }
   note_memory("scene built");
+  StaleOutputRemoval stale;  // an earlier run's outputs, unlinked while this one goes on
   together([&] {
-    if (root) prepare_output_directory(description, options, plan);
+    if (root) stale = prepare_output_directory(description, options, plan);
   });
   std::optional<PieceFrames> frames;  // first: a restart trims the series before the history
   if (vtk) {
