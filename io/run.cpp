@@ -17,6 +17,7 @@
 #include <regex>
 #include <sstream>
 #include <string_view>
+#include <system_error>
 
 #include "io/case_file.hpp"
 #include "io/checkpoint.hpp"
@@ -341,11 +342,16 @@ Checkpoint read_fitting_checkpoint(const Case& description, const RunOptions& op
 
 StaleOutputRemoval::StaleOutputRemoval(std::vector<std::filesystem::path> moved) {
   if (moved.empty()) return;
-  unlinking_ = std::thread([moved = std::move(moved)] {
-    // A file left (an error) is a temporary of this process: the next run removes it.
+  // A file left (an error) is a temporary of this process: the next run removes it.
+  const auto unlink_all = [](const std::vector<std::filesystem::path>& paths) {
     std::error_code ignored;
-    for (const std::filesystem::path& path : moved) std::filesystem::remove(path, ignored);
-  });
+    for (const std::filesystem::path& path : paths) std::filesystem::remove(path, ignored);
+  };
+  try {
+    unlinking_ = std::thread([moved, unlink_all] { unlink_all(moved); });
+  } catch (const std::system_error&) {
+    unlink_all(moved);  // no thread to be had: here, as before
+  }
 }
 
 StaleOutputRemoval prepare_output_directory(const Case& description, const RunOptions& options,
