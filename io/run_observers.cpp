@@ -323,7 +323,7 @@ void frame_contacts(const Scene& scene, const Stepper& stepper, std::vector<doub
     const Eigen::Vector3d d = second - first;
     const double overlap = p.radius[i] + p.radius[j] - d.norm();
     if (overlap <= 0.0) return;
-    const Eigen::Vector3d force(forces.fx[k], forces.fy[k], forces.fz[k]);
+    const Eigen::Vector3d force = forces.force(k);
     const bool bonded = forces.bonded[k] != 0;
     contact(i,
             {p.id[i], p.id[j], first, second, overlap, force.dot(d.normalized()), bonded, force});

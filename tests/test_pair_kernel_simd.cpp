@@ -337,6 +337,48 @@ TEST(PairKernelSimd, RecordsWrittenByTheSweepMatchRecordsCopiedByThePass) {
   }
 }
 
+// Below set_pair_records_below's limit a frictional run without rolling resistance keeps its
+// pairs as 64-B records (PairForces::records), which the lanes write transposed and pass 2 adds in
+// lanes, a record a visit; otherwise the seven arrays and scalar adds. Both must move every
+// particle alike, bit for bit, on every target, through rebuilds that reorder the particles, with
+// bonds, sliding contacts and gaps (the packing's): a force that differed at any step would
+// have moved a particle.
+TEST(PairKernelSimd, PairRecordsAndPairArraysGiveTheSameBits) {
+  const std::size_t limit = set_pair_records_below(0);
+  for (const SimdTarget target : supported_simd_targets()) {
+    select_simd_target(target);
+    SCOPED_TRACE(simd_target_name(target));
+    Scene in_records = jittered_packing();
+    Scene in_arrays = jittered_packing();
+    for (Scene* scene : {&in_records, &in_arrays}) {
+      for (PairCoefficients& pair : scene->pair_table) pair.rolling_friction = 0.0;
+      scene->reorder_interval = 1;        // every rebuild reorders
+      scene->max_overlap_fraction = 0.5;  // the packing's deepest overlaps are 0.29 of a radius
+      for (double& vx : scene->particles.vx) vx += 100.0;  // rebuilds every few steps
+    }
+    Stepper with_records(in_records);
+    Stepper with_arrays(in_arrays);
+    for (int s = 0; s < 120; ++s) {
+      set_pair_records_below(std::numeric_limits<std::size_t>::max());
+      with_records.step();
+      set_pair_records_below(0);
+      with_arrays.step();
+      ASSERT_TRUE(with_records.pair_forces().in_records());
+      ASSERT_FALSE(with_arrays.pair_forces().in_records());
+    }
+    EXPECT_GE(with_records.neighbors().build_count(), 10);
+    EXPECT_GT(with_records.contacts().contacts, 0U);
+    ASSERT_EQ(in_records.particles.size(), in_arrays.particles.size());
+    for (std::size_t i = 0; i < in_records.particles.size(); ++i) {
+      ASSERT_EQ(in_records.particles.id[i], in_arrays.particles.id[i]);
+      ASSERT_TRUE(testing::same_motion(in_records.particles, i, in_arrays.particles, i))
+          << "particle " << i;
+    }
+  }
+  set_pair_records_below(limit);
+  select_simd_target(SimdTarget::kAuto);
+}
+
 // Out of cache pass 2 sums each particle's pair forces in one loop and its pair torques in a
 // second (PairSums::kForce, then kTorque) where below kSplitPairSumsParticles one loop sums both:
 // every component must come out the same bits, with rolling torques and without, on pair slots that

@@ -69,15 +69,37 @@ struct PairForces {
   StaggeredVector<double> roll_x, roll_y, roll_z;  ///< rolling torque on i (rolling resistance)
   StaggeredVector<double> heat;                    ///< heat flow into i [W] (thermal runs)
   StaggeredVector<double> conductance;             ///< contact conductance H [W/K] (thermal runs)
-  /// Slots for @p pairs pairs. The bond flags keep their values (carry_pairs fills them first);
-  /// the other slots are written by every pass 1, so a new size starts them at zero (in parallel).
-  void resize(std::size_t pairs, bool torques, bool rolling, bool thermal) {
+  /// Where the pairs are kept as records (keeps_pair_records): each pair's (fx, fy, fz, delta,
+  /// cx, cy, cz, 0), 64 B at records + 8 k, in place of the seven arrays above, which stay empty.
+  /// Pass 2 then adds a pair's six sums with a vector or two a visit (gather_record_range).
+  StaggeredVector<double> records;
+  std::size_t pairs_sized = 0;  ///< pairs the slots are sized for
+
+  /// Whether the pairs are kept as records.
+  bool in_records() const { return !records.empty(); }
+  /// The force on i of pair @p k, from either layout.
+  Eigen::Vector3d force(std::uint32_t k) const {
+    if (in_records()) {
+      const double* record = records.data() + 8 * std::size_t{k};
+      return {record[0], record[1], record[2]};
+    }
+    return {fx[k], fy[k], fz[k]};
+  }
+
+  /// Slots for @p pairs pairs, with @p as_records one record each instead of the force and lever
+  /// arrays. The bond flags keep their values (carry_pairs fills them first); the other slots are
+  /// written by every pass 1, so a new size starts them at zero (in parallel).
+  void resize(std::size_t pairs, bool torques, bool rolling, bool thermal,
+              bool as_records = false) {
     const auto size = [](StaggeredVector<double>& slots, std::size_t count) {
       if (slots.size() != count) assign_zeros(slots, count);
     };
-    for (StaggeredVector<double>* f : {&fx, &fy, &fz}) size(*f, pairs);
+    const std::size_t arrays = as_records ? 0 : pairs;
+    for (StaggeredVector<double>* f : {&fx, &fy, &fz}) size(*f, arrays);
+    size(records, as_records ? 8 * pairs : 0);
+    pairs_sized = pairs;
     bonded.resize(pairs);
-    for (StaggeredVector<double>* t : {&cx, &cy, &cz, &overlap}) size(*t, torques ? pairs : 0);
+    for (StaggeredVector<double>* t : {&cx, &cy, &cz, &overlap}) size(*t, torques ? arrays : 0);
     for (StaggeredVector<double>* t : {&roll_x, &roll_y, &roll_z}) {
       size(*t, torques && rolling ? pairs : 0);
     }
@@ -556,6 +578,12 @@ void mesh_boundary_contacts(Particles& p, const Scene& scene, const Law& law, st
   }
 }
 
+/// Pass 2's pair sums of particles [@p first, @p end) from PairForces::records into their force
+/// and torque arrays: the additions of gather_pair_range_into<true, false>, in its order, a
+/// record's in lanes (pair_kernel_simd.cpp, dispatched to the target in use).
+void gather_record_range(Particles& p, const NeighborList& list, const double* records,
+                         const Eigen::Vector3d& gravity, std::size_t first, std::size_t end);
+
 /// Particles per block of gather_forces, the unit its threads share out.
 inline constexpr std::size_t kWallLoadBlock = 64;
 
@@ -899,7 +927,9 @@ ContactSummary gather_forces(Particles& p, const Scene& scene, const NeighborLis
         const std::size_t run_end = std::min(end_block, run + kSplitPairSumsBlocks);
         const std::size_t first = run * kWallLoadBlock;
         const std::size_t end = std::min(n, run_end * kWallLoadBlock);
-        if (split_sums) {
+        if (pair_forces.in_records()) {
+          gather_record_range(p, list, pair_forces.records.data(), g, first, end);
+        } else if (split_sums) {
           gather_pair_range_into<kFriction, false, PairSums::kForce>(p, list, pair_forces, g, first,
                                                                      end);
           if (rolling) {

@@ -93,6 +93,16 @@ std::size_t set_kinematics_records_below(std::size_t particles);
 /// the same bytes.
 std::size_t set_stream_pair_slots_from(std::size_t particles);
 
+/// Runs below @p particles particles (default 57 344: where the step's data stays in this
+/// machine's L3) keep each pair's force, n x F_t and delta as one 64-B record (PairForces::records)
+/// where keeps_pair_records says so; returns the previous limit. Process-wide, for tests and
+/// benchmarks: set it between steps. Both ways give the same bytes.
+std::size_t set_pair_records_below(std::size_t particles);
+
+/// Whether a run of @p particles particles whose pairs take the SIMD pass keeps them as records:
+/// with @p friction, without @p rolling resistance or heat (@p thermal), below the limit.
+bool keeps_pair_records(std::size_t particles, bool friction, bool rolling, bool thermal);
+
 /// Where the opening sweep writes the kinematics records of the next pass: null where none.
 struct SweepRecords {
   double* kinematics = nullptr;  ///< SweepArrays::records
