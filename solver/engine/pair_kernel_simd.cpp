@@ -460,11 +460,11 @@ HWY_INLINE void store_slot(D d, hn::Vec<D> v, std::size_t valid, double* to, boo
 /// doubles apart: on AVX-512 the 8 x 8 transpose in registers (three rounds of shuffles), a whole
 /// 64-B store a pair; elsewhere through a staging block.
 template <class D>
-HWY_INLINE void store_records(D d, hn::Vec<D> fx, hn::Vec<D> fy, hn::Vec<D> fz, hn::Vec<D> delta,
-                              const Lanes3<D>& c, std::size_t valid, double* to) {
+HWY_INLINE void store_records(D d, const Lanes3<D>& f, hn::Vec<D> delta, const Lanes3<D>& c,
+                              std::size_t valid, double* to) {
 #if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3
   if constexpr (hn::MaxLanes(d) == 8) {
-    const __m512d r0 = fx.raw, r1 = fy.raw, r2 = fz.raw, r3 = delta.raw;
+    const __m512d r0 = f.x.raw, r1 = f.y.raw, r2 = f.z.raw, r3 = delta.raw;
     const __m512d r4 = c.x.raw, r5 = c.y.raw, r6 = c.z.raw, r7 = _mm512_setzero_pd();
     const __m512d t0 = _mm512_unpacklo_pd(r0, r1), t1 = _mm512_unpackhi_pd(r0, r1);
     const __m512d t2 = _mm512_unpacklo_pd(r2, r3), t3 = _mm512_unpackhi_pd(r2, r3);
@@ -488,9 +488,9 @@ HWY_INLINE void store_records(D d, hn::Vec<D> fx, hn::Vec<D> fy, hn::Vec<D> fz, 
   }
 #endif
   HWY_ALIGN double lanes[8][hn::MaxLanes(d)];
-  hn::Store(fx, d, lanes[0]);
-  hn::Store(fy, d, lanes[1]);
-  hn::Store(fz, d, lanes[2]);
+  hn::Store(f.x, d, lanes[0]);
+  hn::Store(f.y, d, lanes[1]);
+  hn::Store(f.z, d, lanes[2]);
   hn::Store(delta, d, lanes[3]);
   hn::Store(c.x, d, lanes[4]);
   hn::Store(c.y, d, lanes[5]);
@@ -615,28 +615,22 @@ HWY_INLINE void evaluate_block(const detail::LanePassArgs& a, PairBlock& b, std:
     const V positive_overlap = hn::Load(d, b.overlap + s);
     const M contact = positive_overlap > zero;
     if (hn::AllFalse(d, contact)) {
-      if (records != nullptr) {  // the same, in records
-        for (std::size_t l = 0; l < valid; ++l) {
-          for (int v = 0; v < 8; ++v) records[8 * (k + l) + static_cast<std::size_t>(v)] = 0.0;
-        }
-        hn::Store(zero, d, b.bonded + s);
-        if constexpr (kFriction) {
-          for (double* to : {history.sx.data(), history.sy.data(), history.sz.data()}) {
-            store_lanes(d, zero, valid, to + k);
-          }
-        }
-        continue;
-      }
       // No contact in these lanes: no force, torque or bond, springs released. The slots as the
       // lanes in contact store theirs, so that a line is not half streamed, half cached.
-      for (double* to : {out.fx.data(), out.fy.data(), out.fz.data()}) {
-        store_slot(d, zero, valid, to + k, a.stream_slots);
+      if (records != nullptr) {
+        std::fill(records + 8 * std::size_t{k}, records + 8 * (std::size_t{k} + valid), 0.0);
+      } else {
+        for (double* to : {out.fx.data(), out.fy.data(), out.fz.data()}) {
+          store_slot(d, zero, valid, to + k, a.stream_slots);
+        }
+        if constexpr (kFriction) {
+          for (double* to : {out.cx.data(), out.cy.data(), out.cz.data(), out.overlap.data()}) {
+            store_slot(d, zero, valid, to + k, a.stream_slots);
+          }
+        }
       }
       hn::Store(zero, d, b.bonded + s);
       if constexpr (kFriction) {
-        for (double* to : {out.cx.data(), out.cy.data(), out.cz.data(), out.overlap.data()}) {
-          store_slot(d, zero, valid, to + k, a.stream_slots);
-        }
         for (double* to : {history.sx.data(), history.sy.data(), history.sz.data()}) {
           store_lanes(d, zero, valid, to + k);
         }
@@ -712,17 +706,13 @@ HWY_INLINE void evaluate_block(const detail::LanePassArgs& a, PairBlock& b, std:
           d, contact, k_t, d_t, constant(10, c0.friction, s) * load, n, sliding, dt, spring);
       force = {force.x + friction.x, force.y + friction.y, force.z + friction.z};
       const Lanes3<D> per_lever = cross(n, friction);
-      if (records != nullptr) {
-        lever_slot = {hn::IfThenElseZero(contact, per_lever.x),
-                      hn::IfThenElseZero(contact, per_lever.y),
-                      hn::IfThenElseZero(contact, per_lever.z)};
-      } else {
-        store_slot(d, hn::IfThenElseZero(contact, per_lever.x), valid, out.cx.data() + k,
-                   a.stream_slots);
-        store_slot(d, hn::IfThenElseZero(contact, per_lever.y), valid, out.cy.data() + k,
-                   a.stream_slots);
-        store_slot(d, hn::IfThenElseZero(contact, per_lever.z), valid, out.cz.data() + k,
-                   a.stream_slots);
+      lever_slot = {hn::IfThenElseZero(contact, per_lever.x),
+                    hn::IfThenElseZero(contact, per_lever.y),
+                    hn::IfThenElseZero(contact, per_lever.z)};
+      if (records == nullptr) {  // else stored with the force below
+        store_slot(d, lever_slot.x, valid, out.cx.data() + k, a.stream_slots);
+        store_slot(d, lever_slot.y, valid, out.cy.data() + k, a.stream_slots);
+        store_slot(d, lever_slot.z, valid, out.cz.data() + k, a.stream_slots);
         store_slot(d, positive_overlap, valid, out.overlap.data() + k, a.stream_slots);
       }
       store_lanes(d, hn::IfThenElseZero(contact, spring.x), valid, history.sx.data() + k);
@@ -740,14 +730,16 @@ HWY_INLINE void evaluate_block(const detail::LanePassArgs& a, PairBlock& b, std:
         store_lanes(d, roll.z, valid, out.roll_z.data() + k);
       }
     }
+    const Lanes3<D> force_slot{hn::IfThenElseZero(contact, force.x),
+                               hn::IfThenElseZero(contact, force.y),
+                               hn::IfThenElseZero(contact, force.z)};
     if (records != nullptr) {
-      store_records(d, hn::IfThenElseZero(contact, force.x), hn::IfThenElseZero(contact, force.y),
-                    hn::IfThenElseZero(contact, force.z), positive_overlap, lever_slot, valid,
+      store_records(d, force_slot, positive_overlap, lever_slot, valid,
                     records + 8 * std::size_t{k});
     } else {
-      store_slot(d, hn::IfThenElseZero(contact, force.x), valid, out.fx.data() + k, a.stream_slots);
-      store_slot(d, hn::IfThenElseZero(contact, force.y), valid, out.fy.data() + k, a.stream_slots);
-      store_slot(d, hn::IfThenElseZero(contact, force.z), valid, out.fz.data() + k, a.stream_slots);
+      store_slot(d, force_slot.x, valid, out.fx.data() + k, a.stream_slots);
+      store_slot(d, force_slot.y, valid, out.fy.data() + k, a.stream_slots);
+      store_slot(d, force_slot.z, valid, out.fz.data() + k, a.stream_slots);
     }
     tally.contacts += hn::CountTrue(d, contact);
     tally.bonds += hn::CountTrue(d, bonded);
