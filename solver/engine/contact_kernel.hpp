@@ -73,10 +73,11 @@ struct PairForces {
   /// cx, cy, cz, 0), 64 B at records + 8 k, in place of the seven arrays above, which stay empty.
   /// Pass 2 then adds a pair's six sums with a vector or two a visit (gather_record_range).
   StaggeredVector<double> records;
-  std::size_t pairs_sized = 0;  ///< pairs the slots are sized for
 
   /// Whether the pairs are kept as records.
   bool in_records() const { return !records.empty(); }
+  /// The pairs the slots are sized for.
+  std::size_t pairs() const { return in_records() ? records.size() / 8 : fx.size(); }
   /// The force on i of pair @p k, from either layout.
   Eigen::Vector3d force(std::uint32_t k) const {
     if (in_records()) {
@@ -97,7 +98,6 @@ struct PairForces {
     const std::size_t arrays = as_records ? 0 : pairs;
     for (StaggeredVector<double>* f : {&fx, &fy, &fz}) size(*f, arrays);
     size(records, as_records ? 8 * pairs : 0);
-    pairs_sized = pairs;
     bonded.resize(pairs);
     for (StaggeredVector<double>* t : {&cx, &cy, &cz, &overlap}) size(*t, torques ? arrays : 0);
     for (StaggeredVector<double>* t : {&roll_x, &roll_y, &roll_z}) {

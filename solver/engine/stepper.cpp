@@ -139,12 +139,11 @@ ContactSummary Stepper::evaluate_forces(const Law& law, bool ahead) {
 void Stepper::compute_forces(double laser_time, bool ahead) {
   // The per-pair forces are sized for the list here, the first time they are needed after a
   // build or release_pair_forces(): a restored stepper that is only read (a checkpoint, the end
-  // of a decomposed run) never holds them (56 B a pair).
+  // of a decomposed run) never holds them (56 B a pair, 64 B as records).
   const Particles& p = scene_.particles;
   const bool records = !lane_constants_.empty() && !p.contact_history &&
                        keeps_pair_records(p.size(), scene_.friction, scene_.rolling(), p.thermal());
-  if (pair_forces_.pairs_sized != list_.pair_count() || pair_forces_.in_records() != records ||
-      pair_forces_.bonded.size() != list_.pair_count()) {
+  if (pair_forces_.pairs() != list_.pair_count() || pair_forces_.in_records() != records) {
     pair_forces_.resize(list_.pair_count(), scene_.friction, scene_.rolling(), p.thermal(),
                         records);
   }
