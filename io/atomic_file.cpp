@@ -6,11 +6,14 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <mutex>
 #include <new>
 #include <stdexcept>
 #include <system_error>
+#include <vector>
 
 namespace bondem {
 
@@ -31,18 +34,77 @@ bool set_direct(int descriptor, bool on) {
 #endif
 }
 
-/// A buffer of FileWriteBuffer::kBufferBytes, page-aligned: mapped, so that freeing it returns
-/// its pages at once (a heap block of this size may stay resident after it is freed).
-char* map_buffer() {
-  void* const memory = ::mmap(nullptr, FileWriteBuffer::kBufferBytes, PROT_READ | PROT_WRITE,
-                              MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-  return memory == MAP_FAILED ? nullptr : static_cast<char*>(memory);
+/// The write buffers that no file holds now, already touched: kept mapped for the process, so
+/// that the next file does not fault them in again. As many as files were ever written at once
+/// (two each).
+class BufferPool {
+ public:
+  /// A buffer of FileWriteBuffer::kBufferBytes, page-aligned (direct writes need it): a kept one,
+  /// else one of a new pair. Null if none can be mapped.
+  char* take() {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    if (free_.empty() && !map_pair()) return nullptr;
+    char* const buffer = free_.back();
+    free_.pop_back();
+    return buffer;
+  }
+
+  /// Keeps @p buffer (from take()) for the next file; unmaps it if the pool cannot grow.
+  void give_back(char* buffer) noexcept {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    try {
+      free_.push_back(buffer);
+    } catch (const std::bad_alloc&) {
+      ::munmap(buffer, FileWriteBuffer::kBufferBytes);
+    }
+  }
+
+ private:
+  static constexpr std::size_t kPairBytes = 2 * FileWriteBuffer::kBufferBytes;
+
+  /// Maps two buffers as one span aligned to kPairBytes, advised for a transparent huge page:
+  /// one fault for both instead of 512 (a large file fills both). False if nothing was mapped.
+  bool map_pair() {
+    try {
+      free_.reserve(free_.size() + 2);
+    } catch (const std::bad_alloc&) {
+      return false;
+    }
+    // Twice the span, then the unaligned head and tail given back.
+    void* const memory =
+        ::mmap(nullptr, 2 * kPairBytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (memory == MAP_FAILED) return false;
+    const auto start = reinterpret_cast<std::uintptr_t>(memory);
+    const std::uintptr_t aligned = (start + kPairBytes - 1) / kPairBytes * kPairBytes;
+    if (aligned > start) ::munmap(memory, aligned - start);
+    if (aligned + kPairBytes < start + 2 * kPairBytes) {
+      ::munmap(reinterpret_cast<void*>(aligned + kPairBytes),
+               start + 2 * kPairBytes - aligned - kPairBytes);
+    }
+    char* const pair = reinterpret_cast<char*>(aligned);
+#if defined(MADV_HUGEPAGE)
+    ::madvise(pair, kPairBytes, MADV_HUGEPAGE);  // advice only: refused, small pages stay
+#endif
+    free_.push_back(pair);
+    free_.push_back(pair + FileWriteBuffer::kBufferBytes);
+    return true;
+  }
+
+  std::mutex mutex_;
+  std::vector<char*> free_;
+};
+
+/// The process's pool. Never destroyed: a file may still be written from a static destructor,
+/// and the mappings end with the process anyway.
+BufferPool& buffer_pool() {
+  static BufferPool* const pool = new BufferPool;
+  return *pool;
 }
 
 }  // namespace
 
 FileWriteBuffer::FileWriteBuffer(int descriptor) : descriptor_(descriptor) {
-  buffers_[0] = map_buffer();
+  buffers_[0] = buffer_pool().take();
   if (buffers_[0] == nullptr) {
     ::close(descriptor_);
     throw std::bad_alloc();
@@ -54,7 +116,7 @@ FileWriteBuffer::~FileWriteBuffer() {
   wait_for_writer();
   if (descriptor_ >= 0) ::close(descriptor_);
   for (char* buffer : buffers_) {
-    if (buffer != nullptr) ::munmap(buffer, kBufferBytes);
+    if (buffer != nullptr) buffer_pool().give_back(buffer);
   }
 }
 
@@ -92,7 +154,7 @@ bool FileWriteBuffer::wait_for_writer() {
 
 bool FileWriteBuffer::drain_full() {
   if (!wait_for_writer()) return false;
-  if (buffers_[1] == nullptr && (buffers_[1] = map_buffer()) == nullptr) {
+  if (buffers_[1] == nullptr && (buffers_[1] = buffer_pool().take()) == nullptr) {
     failed_ = true;
     return false;
   }

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <filesystem>
 #include <iterator>
@@ -87,6 +88,35 @@ TEST(AtomicFile, FileOfSeveralBuffersHoldsExactlyItsBytes) {
   for (const std::size_t size : {kBuffer, kBuffer + 1, 2 * kBuffer, 5 * kBuffer / 2 + 123}) {
     expect_written_whole(directory, size);
   }
+}
+
+// The buffers are kept for the next file: two files open at once, filled in turns across several
+// buffers each, must never be handed the same buffer (each would then hold the other's bytes).
+TEST(AtomicFile, FilesOpenAtOnceKeepTheirOwnBytes) {
+  const fs::path directory = scratch_directory("interleaved");
+  constexpr std::size_t kBuffer = FileWriteBuffer::kBufferBytes;
+  const std::string first = pattern(5 * kBuffer / 2 + 17);
+  std::string second = pattern(3 * kBuffer + 5);
+  std::reverse(second.begin(), second.end());
+  {
+    AtomicFile a((directory / "a.bin").string());
+    AtomicFile b((directory / "b.bin").string());
+    constexpr std::size_t kPiece = 100'003;  // not a divisor of a buffer: the turns straddle them
+    for (std::size_t at = 0; at < std::max(first.size(), second.size()); at += kPiece) {
+      if (at < first.size()) {
+        a.stream().write(first.data() + at,
+                         static_cast<std::streamsize>(std::min(kPiece, first.size() - at)));
+      }
+      if (at < second.size()) {
+        b.stream().write(second.data() + at,
+                         static_cast<std::streamsize>(std::min(kPiece, second.size() - at)));
+      }
+    }
+    b.commit();
+    a.commit();
+  }
+  EXPECT_TRUE(testing::file_bytes(directory / "a.bin") == first) << "the first file differs";
+  EXPECT_TRUE(testing::file_bytes(directory / "b.bin") == second) << "the second file differs";
 }
 
 // tmpfs takes no direct writes on many kernels: the fallback must give the same file.
