@@ -62,8 +62,9 @@ class BufferPool {
  private:
   static constexpr std::size_t kPairBytes = 2 * FileWriteBuffer::kBufferBytes;
 
-  /// Maps two buffers as one span aligned to kPairBytes, advised for a transparent huge page:
-  /// one fault for both instead of 512 (a large file fills both). False if nothing was mapped.
+  /// Maps two buffers as one span aligned to kPairBytes, advised for transparent huge pages: a
+  /// fault per huge page instead of per 4 KiB (a large file fills both). False if nothing was
+  /// mapped.
   bool map_pair() {
     try {
       free_.reserve(free_.size() + 2);
