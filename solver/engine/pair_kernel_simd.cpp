@@ -1115,8 +1115,8 @@ namespace {
 /// set_pair_records_below's limit. Measured on the 20 800 peer lattice only (whole runs 0.90 on
 /// AVX-512, 8 alternating rounds); a test program of pass 2 alone at 10^6 took 1.23 times as long
 /// with records (64 B a pair where the arrays read 56, and the pair's line whole at every column
-/// visit), so they stop where the step's data leaves the L3, as the slots start to stream.
-std::atomic<std::size_t> pair_records_below{57344};
+/// visit), so they stop where the step's data leaves the L3, where the slots start to stream.
+std::atomic<std::size_t> pair_records_below{kStreamSlotsParticles};
 }  // namespace
 
 std::size_t set_pair_records_below(std::size_t particles) {
