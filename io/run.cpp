@@ -497,7 +497,7 @@ RunResult simulate(const Case& description, const RunOptions& options, const Run
                          history);
   CheckpointFile checkpoint(plan.checkpoint_path, plan.fingerprint, plan.checkpoint_every, history);
   RunAnalysis analysis(description);
-  EndOfRunFiles end_files(plan.directory, analysis);
+  EndOfRunFiles end_files(plan.directory, analysis, checkpoint);
   std::optional<StateFiles> states;
   if (plan.state_every > 0) states.emplace(plan.directory, plan.state_every);
   std::optional<LayerFiles> layers;
@@ -514,6 +514,7 @@ RunResult simulate(const Case& description, const RunOptions& options, const Run
     if (observer != nullptr) simulation.attach(*observer);
   }
   const RunEnd end = simulation.run();
+  checkpoint.wait_written();  // EndOfRunFiles has waited for it, unless the run ended otherwise
   if (end.blow_up) {
     throw BlowUpError(blow_up_message(*end.blow_up, description, plan), end.blow_up->cause());
   }

@@ -63,12 +63,11 @@ char* write_final_rows(const Particles& p, const std::vector<std::string>& names
   return out;
 }
 
-}  // namespace
-
-void write_final_state(const Particles& p, const std::vector<std::string>& material_names,
-                       const std::string& path, const std::vector<int>& bonds) {
+/// write_final_state() into @p file, which the caller commits.
+void put_final_state(AtomicFile& file, const Particles& p,
+                     const std::vector<std::string>& material_names,
+                     const std::vector<int>& bonds) {
   const std::vector<std::uint32_t> order = p.order_by_id();
-  AtomicFile file(path);
   std::ostream& out = file.stream();
   const bool thermal = p.thermal() && bonds.size() == p.size();
   // New columns go last, so that a reader by column position keeps working.
@@ -104,6 +103,14 @@ void write_final_state(const Particles& p, const std::vector<std::string>& mater
       out.write(start, end - start);
     }
   }
+}
+
+}  // namespace
+
+void write_final_state(const Particles& p, const std::vector<std::string>& material_names,
+                       const std::string& path, const std::vector<int>& bonds) {
+  AtomicFile file(path);
+  put_final_state(file, p, material_names, bonds);
   file.commit();
 }
 
@@ -369,25 +376,31 @@ CheckpointFile::CheckpointFile(std::string path, std::uint64_t fingerprint, std:
 
 void CheckpointFile::after_step(const Simulation& simulation) {
   // Not at the end: finish() writes that one, after the last step's other outputs.
-  if (reads_state(simulation, simulation.step())) write(simulation);
+  if (reads_state(simulation, simulation.step())) write(simulation.scene(), simulation.stepper());
 }
 
 void CheckpointFile::interrupted(const Simulation& simulation, const Interruption& why) {
-  if (why.reason == StopReason::kStopRequested) write(simulation);
+  if (why.reason == StopReason::kStopRequested) write(simulation.scene(), simulation.stepper());
 }
 
 void CheckpointFile::finish(const Simulation& simulation) {
-  write(simulation);
+  // The scene and the stepper, not the simulation: they outlive it (a run that fails after this
+  // unwinds the simulation first, and the future's destructor waits for the thread).
+  const Scene& scene = simulation.scene();
+  const Stepper& stepper = simulation.stepper();
+  writing_ = std::async(std::launch::async, [this, &scene, &stepper] { write(scene, stepper); });
 }
 
-void CheckpointFile::write(const Simulation& simulation) const {
+void CheckpointFile::wait_written() {
+  if (writing_.valid()) writing_.get();
+}
+
+void CheckpointFile::write(const Scene& scene, const Stepper& stepper) const {
   // By reference: the particles, the list's build positions and the pairs' state are streamed
   // to the file, not copied.
-  const Stepper& stepper = simulation.stepper();
   const StepperState state = stepper.save_state(SavedArrays::kOmitted);
-  write_checkpoint(path_,
-                   checkpoint_view(fingerprint_, simulation.scene().particles, stepper, state,
-                                   history_.text(), simulation.scene().material_names));
+  write_checkpoint(path_, checkpoint_view(fingerprint_, scene.particles, stepper, state,
+                                          history_.text(), scene.material_names));
 }
 
 namespace {
@@ -524,8 +537,9 @@ void LayerFiles::write_summary() const {
   file.commit();
 }
 
-EndOfRunFiles::EndOfRunFiles(std::filesystem::path directory, const RunAnalysis& analysis)
-    : directory_(std::move(directory)), analysis_(analysis) {}
+EndOfRunFiles::EndOfRunFiles(std::filesystem::path directory, const RunAnalysis& analysis,
+                             CheckpointFile& checkpoint)
+    : directory_(std::move(directory)), analysis_(analysis), checkpoint_(checkpoint) {}
 
 void EndOfRunFiles::interrupted(const Simulation& simulation, const Interruption& why) {
   if (why.reason != StopReason::kStopRequested) return;
@@ -538,15 +552,19 @@ void EndOfRunFiles::finish(const Simulation& simulation) {
   if (!analysis_.figures()) throw std::logic_error("EndOfRunFiles: attach it after RunAnalysis");
   write_end_of_run_files(directory_, simulation.scene().particles,
                          simulation.scene().material_names, final_state_bonds(simulation),
-                         *analysis_.figures());
+                         *analysis_.figures(), [this] { checkpoint_.wait_written(); });
 }
 
 void write_end_of_run_files(const std::filesystem::path& directory, const Particles& p,
                             const std::vector<std::string>& material_names,
-                            const std::vector<int>& bonds, const RunFigures& figures) {
+                            const std::vector<int>& bonds, const RunFigures& figures,
+                            const std::function<void()>& before_commit) {
   OutputSet end_of_run(
       {directory / "final_state.csv", directory / "clusters.csv", directory / "layer.csv"});
-  write_final_state(p, material_names, (directory / "final_state.csv").string(), bonds);
+  AtomicFile final_state((directory / "final_state.csv").string());
+  put_final_state(final_state, p, material_names, bonds);
+  if (before_commit) before_commit();
+  final_state.commit();
   write_clusters(figures.clusters, (directory / "clusters.csv").string());
   if (figures.layer) write_layer(*figures.layer, (directory / "layer.csv").string());
   end_of_run.keep();

@@ -190,5 +190,34 @@ TEST(ParaViewOutput, BondsAreASeriesOfTheirOwn) {
   EXPECT_EQ(bonded.cell_array("bonded")->values, std::vector<double>{1.0});
 }
 
+TEST(OutputOptions, NoEndOfRunFileAppearsWhenTheEndCheckpointFails) {
+  // The end-of-run checkpoint is written on a thread of its own while the analysis and the
+  // end-of-run files are made. Those must wait for it: when it fails (here its directory is a
+  // file), none of them may appear, and the run must fail with the checkpoint's error.
+  const fs::path directory = testing::fresh_directory("output_end_checkpoint_fails");
+  fs::create_directories(directory);
+  std::ofstream(directory / "a_file") << "not a directory\n";
+  const Case c = load_case(BONDEM_CASES_DIR "/paper_5_1.yaml");
+  Scene scene = build_scene(c);
+  Stepper stepper(scene);
+  History history(scene, 1);
+  CheckpointFile checkpoint((directory / "a_file" / "checkpoint.bin").string(), 0, 1000, history);
+  RunAnalysis analysis(c);
+  EndOfRunFiles end_files(directory, analysis, checkpoint);
+  Simulation simulation(scene, stepper, 3);
+  for (Observer* observer :
+       std::initializer_list<Observer*>{&history, &checkpoint, &analysis, &end_files}) {
+    simulation.attach(*observer);
+  }
+  try {
+    simulation.run();
+    ADD_FAILURE() << "the run ended although its checkpoint could not be written";
+  } catch (const std::runtime_error& error) {
+    EXPECT_NE(std::string(error.what()).find("checkpoint.bin"), std::string::npos) << error.what();
+  }
+  EXPECT_FALSE(fs::exists(directory / "final_state.csv"));
+  EXPECT_FALSE(fs::exists(directory / "clusters.csv"));
+}
+
 }  // namespace
 }  // namespace bondem
