@@ -102,6 +102,33 @@ BufferPool& buffer_pool() {
   return *pool;
 }
 
+/// The files offered by offer_for_rewrite and not yet taken: the original's path, the file.
+struct Rewrites {
+  std::mutex mutex;
+  std::vector<std::pair<std::filesystem::path, std::filesystem::path>> offered;
+};
+
+/// The process's offers. Never destroyed, as buffer_pool().
+Rewrites& rewrites() {
+  static Rewrites* const offers = new Rewrites;
+  return *offers;
+}
+
+/// The file offered for rewriting as @p original, taken from the offers; empty when none.
+std::filesystem::path take_rewrite(const std::filesystem::path& original) {
+  Rewrites& offers = rewrites();
+  const std::lock_guard<std::mutex> lock(offers.mutex);
+  const std::filesystem::path key = original.lexically_normal();
+  for (auto offer = offers.offered.begin(); offer != offers.offered.end(); ++offer) {
+    if (offer->first == key) {
+      std::filesystem::path aside = std::move(offer->second);
+      offers.offered.erase(offer);
+      return aside;
+    }
+  }
+  return {};
+}
+
 }  // namespace
 
 FileWriteBuffer::FileWriteBuffer(int descriptor) : descriptor_(descriptor) {
@@ -201,10 +228,11 @@ bool FileWriteBuffer::finish() {
     written = write_at(pbase(), tail, written_);
     written_ += tail;
   }
-  // A padded direct tail left whole blocks: cut the file back to the bytes put. Then the open file
-  // is left as it came: a duplicate of its descriptor (LastGoodFile's) shares O_DIRECT, and reads
-  // through it would have to be aligned.
-  if (written && direct_) written = ::ftruncate(descriptor_, static_cast<off_t>(written_)) == 0;
+  // A padded direct tail left whole blocks, and a file written over (offer_for_rewrite, the
+  // last-good scratch) may be longer than what was put: cut the file back to the bytes put. Then
+  // the open file is left as it came: a duplicate of its descriptor (LastGoodFile's) shares
+  // O_DIRECT, and reads through it would have to be aligned.
+  if (written) written = ::ftruncate(descriptor_, static_cast<off_t>(written_)) == 0;
   if (direct_ && !set_direct(descriptor_, false)) written = false;
   const bool closed = ::close(descriptor_) == 0;
   descriptor_ = -1;
@@ -218,7 +246,18 @@ AtomicFile::AtomicFile(std::string path)
   std::error_code error;
   if (!parent.empty()) std::filesystem::create_directories(parent, error);
   if (error) throw std::runtime_error(path_ + ": cannot create directory: " + error.message());
-  const int descriptor = ::open(temporary_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  int descriptor = -1;
+  if (const std::filesystem::path aside = take_rewrite(path_); !aside.empty()) {
+    descriptor = ::open(aside.c_str(), O_WRONLY | O_CLOEXEC);
+    if (descriptor >= 0) {
+      temporary_ = aside.string();
+    } else {
+      std::filesystem::remove(aside, error);  // not to be had: a new temporary, as without it
+    }
+  }
+  if (descriptor < 0) {
+    descriptor = ::open(temporary_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  }
   if (descriptor < 0) throw std::runtime_error(path_ + ": cannot open for writing");
   buffer_ = std::make_unique<FileWriteBuffer>(descriptor);
   stream_.rdbuf(buffer_.get());
@@ -240,6 +279,25 @@ void AtomicFile::commit() {
   std::filesystem::rename(temporary_, path_, error);
   if (error) throw std::runtime_error(path_ + ": cannot move into place: " + error.message());
   committed_ = true;
+}
+
+void offer_for_rewrite(const std::filesystem::path& original, const std::filesystem::path& aside) {
+  Rewrites& offers = rewrites();
+  const std::lock_guard<std::mutex> lock(offers.mutex);
+  offers.offered.emplace_back(original.lexically_normal(), aside);
+}
+
+std::vector<std::filesystem::path> withdraw_rewrites(
+    const std::vector<std::filesystem::path>& asides) {
+  Rewrites& offers = rewrites();
+  const std::lock_guard<std::mutex> lock(offers.mutex);
+  std::vector<std::filesystem::path> withdrawn;
+  std::erase_if(offers.offered, [&](const auto& offer) {
+    if (std::find(asides.begin(), asides.end(), offer.second) == asides.end()) return false;
+    withdrawn.push_back(offer.second);
+    return true;
+  });
+  return withdrawn;
 }
 
 }  // namespace bondem

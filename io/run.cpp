@@ -1,5 +1,6 @@
 #include "io/run.hpp"
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -19,6 +20,7 @@
 #include <string_view>
 #include <system_error>
 
+#include "io/atomic_file.hpp"
 #include "io/case_file.hpp"
 #include "io/checkpoint.hpp"
 #include "io/run_observers.hpp"
@@ -244,18 +246,32 @@ StaleOutputRemoval remove_stale_outputs(const std::filesystem::path& directory,
                              ": cannot list the output directory: " + error.message());
   }
   std::vector<fs::path> moved = std::move(dead_temporaries);
+  std::vector<fs::path> offered;
   const std::string pid = std::to_string(::getpid());
   for (const fs::path& path : stale) {
-    fs::path aside =
-        directory / (std::string(kStaleScratch) + std::to_string(moved.size()) + ".tmp." + pid);
+    fs::path aside = directory / (std::string(kStaleScratch) +
+                                  std::to_string(moved.size() + offered.size()) + ".tmp." + pid);
+    // Whether this run writes it again through an AtomicFile, large enough to be written direct,
+    // and linked by no other name (a hard link made to keep it must keep its bytes).
+    const std::string name = path.filename().string();
+    struct stat status {};
+    const bool rewritten =
+        (name == "checkpoint.bin" || name == "final_state.csv" || state_file_index(name) >= 0) &&
+        ::stat(path.c_str(), &status) == 0 && status.st_nlink == 1 &&
+        static_cast<std::size_t>(status.st_size) >= FileWriteBuffer::kBufferBytes;
     fs::rename(path, aside, error);
     if (error) {
       throw std::runtime_error(path.string() +
                                ": cannot remove an earlier run's output: " + error.message());
     }
-    moved.push_back(std::move(aside));
+    if (rewritten) {
+      offer_for_rewrite(path, aside);
+      offered.push_back(std::move(aside));
+    } else {
+      moved.push_back(std::move(aside));
+    }
   }
-  return StaleOutputRemoval(std::move(moved));
+  return StaleOutputRemoval(std::move(moved), std::move(offered));
 }
 
 }  // namespace
@@ -340,7 +356,9 @@ Checkpoint read_fitting_checkpoint(const Case& description, const RunOptions& op
   return restored;
 }
 
-StaleOutputRemoval::StaleOutputRemoval(std::vector<std::filesystem::path> moved) {
+StaleOutputRemoval::StaleOutputRemoval(std::vector<std::filesystem::path> moved,
+                                       std::vector<std::filesystem::path> offered)
+    : offered_(std::move(offered)) {
   if (moved.empty()) return;
   // A file left (an error) is a temporary of this process: the next run removes it.
   const auto unlink_all = [](const std::vector<std::filesystem::path>& paths) {
@@ -352,6 +370,19 @@ StaleOutputRemoval::StaleOutputRemoval(std::vector<std::filesystem::path> moved)
   } catch (const std::system_error&) {
     unlink_all(moved);  // no thread to be had: here, as before
   }
+}
+
+void StaleOutputRemoval::wait() noexcept {
+  if (unlinking_.joinable()) unlinking_.join();
+  if (offered_.empty()) return;
+  std::error_code ignored;
+  try {
+    for (const std::filesystem::path& path : withdraw_rewrites(offered_)) {
+      std::filesystem::remove(path, ignored);
+    }
+  } catch (const std::exception&) {  // no memory for the list: the next run removes them
+  }
+  offered_.clear();
 }
 
 StaleOutputRemoval prepare_output_directory(const Case& description, const RunOptions& options,

@@ -64,30 +64,34 @@ void check_output_fields(const Case& description, const Scene& scene,
 /// An earlier run's outputs, moved aside under names of this process's temporaries and unlinked
 /// on a thread of their own while the run goes on: ext4 frees a large file's blocks within the
 /// unlink, waiting on the disk (0.1-0.3 s for a 10^6 run's checkpoint and final state, on the
-/// critical path of every repeated run). The destructor waits for the thread, so a run ends with
-/// them gone; a process killed first leaves temporaries the next run removes.
+/// critical path of every repeated run). The large files that the run writes again under the same
+/// name (checkpoint, final state, state snapshots) are offered for it to write over instead
+/// (offer_for_rewrite); those it did not take are unlinked at the end. The destructor waits for
+/// the thread, so a run ends with them gone; a process killed first leaves temporaries the next
+/// run removes.
 class StaleOutputRemoval {
  public:
   StaleOutputRemoval() = default;
-  /// Starts unlinking @p moved.
-  explicit StaleOutputRemoval(std::vector<std::filesystem::path> moved);
+  /// Starts unlinking @p moved; @p offered were offered for rewriting.
+  explicit StaleOutputRemoval(std::vector<std::filesystem::path> moved,
+                              std::vector<std::filesystem::path> offered = {});
   ~StaleOutputRemoval() { wait(); }
   StaleOutputRemoval(StaleOutputRemoval&& other) noexcept = default;
   StaleOutputRemoval& operator=(StaleOutputRemoval&& other) noexcept {
     wait();
     unlinking_ = std::move(other.unlinking_);
+    offered_ = std::move(other.offered_);
     return *this;
   }
   StaleOutputRemoval(const StaleOutputRemoval&) = delete;
   StaleOutputRemoval& operator=(const StaleOutputRemoval&) = delete;
 
-  /// Waits until every moved file is unlinked.
-  void wait() {
-    if (unlinking_.joinable()) unlinking_.join();
-  }
+  /// Waits until every moved file is unlinked, and unlinks the offered ones not rewritten.
+  void wait() noexcept;
 
  private:
   std::thread unlinking_;
+  std::vector<std::filesystem::path> offered_;  ///< offered for rewriting
 };
 
 /// Make the output directory this run's, once everything is checked: probe that it can be

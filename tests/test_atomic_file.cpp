@@ -7,9 +7,11 @@
 #include <algorithm>
 #include <cstdint>
 #include <filesystem>
+#include <fstream>
 #include <iterator>
 #include <ostream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "io/atomic_file.hpp"
@@ -151,6 +153,32 @@ TEST(AtomicFile, FailedWriteIsReported) {
     const bool reported = !out || !buffer.finish();
     EXPECT_TRUE(reported) << size << " bytes";
   }
+}
+
+TEST(AtomicFile, AnOfferedFileIsWrittenOverAndCutToItsNewLength) {
+  // An earlier run's file offered for rewriting becomes the temporary: whatever it held, longer
+  // or shorter than the new bytes, the committed file holds exactly them, and the offered name
+  // is gone. Sizes above a buffer take the direct writes, below it the ordinary ones.
+  const fs::path directory = scratch_directory("rewrite");
+  const std::size_t buffer = FileWriteBuffer::kBufferBytes;
+  for (const auto& [old_size, new_size] : std::vector<std::pair<std::size_t, std::size_t>>{
+           {5 * buffer / 2 + 100, buffer + 7}, {10, 3 * buffer / 2 + 3}, {3 * buffer, 123}}) {
+    const fs::path target = directory / "out.bin";
+    const fs::path aside = directory / ".bondem_stale_0.tmp.1";
+    { std::ofstream(aside, std::ios::binary) << std::string(old_size, 'x'); }
+    offer_for_rewrite(target, aside);
+    const std::string bytes = pattern(new_size);
+    AtomicFile file(target.string());
+    file.stream().write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    file.commit();
+    EXPECT_TRUE(testing::file_bytes(target) == bytes) << old_size << " -> " << new_size;
+    EXPECT_FALSE(fs::exists(aside)) << old_size << " -> " << new_size;
+  }
+  // An offer nobody takes is handed back to its owner, once.
+  const fs::path unused = directory / ".bondem_stale_1.tmp.1";
+  offer_for_rewrite(directory / "never_written.bin", unused);
+  EXPECT_EQ(withdraw_rewrites({unused}), std::vector<fs::path>{unused});
+  EXPECT_TRUE(withdraw_rewrites({unused}).empty());
 }
 
 }  // namespace

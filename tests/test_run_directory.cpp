@@ -172,6 +172,37 @@ TEST(RunDirectory, FailedEndOfRunWriteLeavesNoFinalStateWithoutItsCheckpoint) {
   EXPECT_TRUE(fs::exists(directory / "checkpoint.bin"));
 }
 
+TEST(RunDirectory, AnEarlierOutputLinkedElsewhereKeepsItsBytes) {
+  // A run writes its large outputs over the earlier run's files of the same name (no unlink, no
+  // new blocks), but not over one that another name links: a hard link made to keep an earlier
+  // final state must still hold it after the next run. The peers' 20 800 lattice: a final state
+  // above the 2 MiB that makes a file worth writing over.
+  const fs::path directory = testing::fresh_directory("run_directory_linked_output");
+  const auto lattice = [](const char* end) {
+    return load_case(BONDEM_CASES_DIR "/bench/peer_lattice.yaml", {std::string("time.end=") + end});
+  };
+  testing::quiet_run(lattice("5e-7"), directory);
+  ASSERT_GT(fs::file_size(directory / "final_state.csv"), 2u << 20);
+  const std::string earlier = testing::file_bytes(directory / "final_state.csv");
+  fs::create_hard_link(directory / "final_state.csv", directory / "kept_state.csv");
+  const std::string earlier_checkpoint = testing::file_bytes(directory / "checkpoint.bin");
+  testing::quiet_run(lattice("1e-6"), directory);
+  EXPECT_TRUE(testing::file_bytes(directory / "kept_state.csv") == earlier);
+  EXPECT_FALSE(testing::file_bytes(directory / "final_state.csv") == earlier);
+  // The checkpoint, linked by no other name, was written over: the run's own bytes, whole.
+  const fs::path again = testing::fresh_directory("run_directory_linked_output_fresh");
+  testing::quiet_run(lattice("1e-6"), again);
+  EXPECT_TRUE(testing::file_bytes(directory / "checkpoint.bin") ==
+              testing::file_bytes(again / "checkpoint.bin"));
+  EXPECT_FALSE(testing::file_bytes(directory / "checkpoint.bin") == earlier_checkpoint);
+  EXPECT_TRUE(testing::file_bytes(directory / "final_state.csv") ==
+              testing::file_bytes(again / "final_state.csv"));
+  for (const fs::directory_entry& entry : fs::directory_iterator(directory)) {
+    EXPECT_EQ(entry.path().filename().string().find(".tmp."), std::string::npos)
+        << entry.path() << " left behind";
+  }
+}
+
 // Item 3: an output interval longer than the run means "at the end only"; before, the step count
 // of 1e300 s overflowed and every step wrote a row and a frame.
 TEST(RunDirectory, IntervalsLongerThanTheRunWriteAtTheStartAndEndOnly) {
