@@ -251,12 +251,14 @@ StaleOutputRemoval remove_stale_outputs(const std::filesystem::path& directory,
   for (const fs::path& path : stale) {
     fs::path aside = directory / (std::string(kStaleScratch) +
                                   std::to_string(moved.size() + offered.size()) + ".tmp." + pid);
-    // Whether this run writes it again through an AtomicFile, large enough to be written direct,
-    // and linked by no other name (a hard link made to keep it must keep its bytes).
+    // Whether this run writes it again through an AtomicFile (every run that ends writes these
+    // two; state snapshots are left out: held until the end, many large ones would keep their
+    // disk space through the run), large enough to be written direct, and linked by no other
+    // name (a hard link made to keep it must keep its bytes).
     const std::string name = path.filename().string();
     struct stat status {};
     const bool rewritten =
-        (name == "checkpoint.bin" || name == "final_state.csv" || state_file_index(name) >= 0) &&
+        (name == "checkpoint.bin" || name == "final_state.csv") &&
         ::stat(path.c_str(), &status) == 0 && status.st_nlink == 1 &&
         static_cast<std::size_t>(status.st_size) >= FileWriteBuffer::kBufferBytes;
     fs::rename(path, aside, error);

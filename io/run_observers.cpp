@@ -388,7 +388,11 @@ void CheckpointFile::finish(const Simulation& simulation) {
   // unwinds the simulation first, and the future's destructor waits for the thread).
   const Scene& scene = simulation.scene();
   const Stepper& stepper = simulation.stepper();
-  writing_ = std::async(std::launch::async, [this, &scene, &stepper] { write(scene, stepper); });
+  try {
+    writing_ = std::async(std::launch::async, [this, &scene, &stepper] { write(scene, stepper); });
+  } catch (const std::system_error&) {
+    write(scene, stepper);  // no thread to be had: here, before the other end-of-run outputs
+  }
 }
 
 void CheckpointFile::wait_written() {

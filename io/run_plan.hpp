@@ -64,8 +64,8 @@ void check_output_fields(const Case& description, const Scene& scene,
 /// An earlier run's outputs, moved aside under names of this process's temporaries and unlinked
 /// on a thread of their own while the run goes on: ext4 frees a large file's blocks within the
 /// unlink, waiting on the disk (0.1-0.3 s for a 10^6 run's checkpoint and final state, on the
-/// critical path of every repeated run). The large files that the run writes again under the same
-/// name (checkpoint, final state, state snapshots) are offered for it to write over instead
+/// critical path of every repeated run). The checkpoint and the final state, which the run writes
+/// again under the same names, are offered for it to write over instead when large
 /// (offer_for_rewrite); those it did not take are unlinked at the end. The destructor waits for
 /// the thread, so a run ends with them gone; a process killed first leaves temporaries the next
 /// run removes.
