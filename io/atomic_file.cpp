@@ -118,15 +118,13 @@ Rewrites& rewrites() {
 std::filesystem::path take_rewrite(const std::filesystem::path& original) {
   Rewrites& offers = rewrites();
   const std::lock_guard<std::mutex> lock(offers.mutex);
-  const std::filesystem::path key = original.lexically_normal();
-  for (auto offer = offers.offered.begin(); offer != offers.offered.end(); ++offer) {
-    if (offer->first == key) {
-      std::filesystem::path aside = std::move(offer->second);
-      offers.offered.erase(offer);
-      return aside;
-    }
-  }
-  return {};
+  const auto offer =
+      std::find_if(offers.offered.begin(), offers.offered.end(),
+                   [key = original.lexically_normal()](const auto& o) { return o.first == key; });
+  if (offer == offers.offered.end()) return {};
+  std::filesystem::path aside = std::move(offer->second);
+  offers.offered.erase(offer);
+  return aside;
 }
 
 }  // namespace

@@ -1,6 +1,5 @@
 #include "io/run.hpp"
 
-#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -256,11 +255,11 @@ StaleOutputRemoval remove_stale_outputs(const std::filesystem::path& directory,
     // disk space through the run), large enough to be written direct, and linked by no other
     // name (a hard link made to keep it must keep its bytes).
     const std::string name = path.filename().string();
-    struct stat status {};
-    const bool rewritten =
-        (name == "checkpoint.bin" || name == "final_state.csv") &&
-        ::stat(path.c_str(), &status) == 0 && status.st_nlink == 1 &&
-        static_cast<std::size_t>(status.st_size) >= FileWriteBuffer::kBufferBytes;
+    std::error_code unknown;  // a file that cannot be asked is unlinked, as before
+    const bool rewritten = (name == "checkpoint.bin" || name == "final_state.csv") &&
+                           fs::hard_link_count(path, unknown) == 1 && !unknown &&
+                           fs::file_size(path, unknown) >= FileWriteBuffer::kBufferBytes &&
+                           !unknown;
     fs::rename(path, aside, error);
     if (error) {
       throw std::runtime_error(path.string() +
