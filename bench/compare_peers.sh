@@ -13,6 +13,11 @@
 #                           the kernel puts them). On a virtual machine whose CPUs run at different
 #                           speeds (measured here: one 25 % slower than the other for an hour),
 #                           unpinned one-core times split into two groups by the CPU they landed on.
+#     SECOND_CPU=1          with PIN_CPU: in every round also run bondem's one-core run on this CPU
+#                           (code "bondem-second"), and report per round the two-core speed-up that
+#                           a perfect split over the two CPUs would give, 1 + t(PIN_CPU) /
+#                           t(SECOND_CPU), beside bondem's: on unequal vCPUs two threads cannot beat
+#                           it, whatever the code.
 #
 # Per code and core count it reports the whole-process wall time (/usr/bin/time around the
 # command: start-up, set-up, the steps and bondem's final output files), particle-steps/s from
@@ -47,6 +52,11 @@ out="$repo/output/compare_peers"
 codes=(bondem liggghts lammps)
 
 [[ -z ${PIN_CPU:-} || $PIN_CPU =~ ^[0-9]+$ ]] || { echo "compare_peers: PIN_CPU must be a CPU number, not '$PIN_CPU'" >&2; exit 2; }
+if [[ -n ${SECOND_CPU:-} ]]; then
+  [[ $SECOND_CPU =~ ^[0-9]+$ ]] || { echo "compare_peers: SECOND_CPU must be a CPU number, not '$SECOND_CPU'" >&2; exit 2; }
+  [[ -n ${PIN_CPU:-} ]] || { echo "compare_peers: SECOND_CPU needs PIN_CPU (the CPU it is compared with)" >&2; exit 2; }
+  codes+=(bondem-second)
+fi
 for tool in lmp liggghts mpirun /usr/bin/time taskset; do
   command -v "$tool" >/dev/null || { echo "compare_peers: '$tool' not found (see the header)" >&2; exit 2; }
 done
@@ -75,26 +85,28 @@ run_code() {
   local times="$out/$1.$2.$3.time" ranks="$out/$1.$2.$3.rss"
   local cmd
   case $code in
-    bondem) cmd=("$build/bondem" run "$repo/cases/bench/$case_file" --output "$out/bondem.$lattice.$cores"
-      --threads "$cores" --quiet) ;;
+    bondem | bondem-second) cmd=("$build/bondem" run "$repo/cases/bench/$case_file"
+      --output "$out/$code.$lattice.$cores" --threads "$cores" --quiet) ;;
     lammps) cmd=(lmp -in "$peer_input.lammps" -log none) ;;
     liggghts) cmd=(liggghts -in "$peer_input.liggghts" -log none) ;;
   esac
   rm -f "$ranks"
   local before="" after=""
   [[ $cores -eq 2 ]] && before=$(core_latency)
-  if [[ $code != bondem && $cores -gt 1 ]]; then
+  if [[ $code != bondem* && $cores -gt 1 ]]; then
     cmd=(mpirun --allow-run-as-root -np "$cores" /usr/bin/time -f %M -a -o "$ranks" "${cmd[@]}")
   fi
-  if [[ -n ${PIN_CPU:-} && $cores -eq 1 ]]; then cmd=(taskset -c "$PIN_CPU" "${cmd[@]}"); fi
+  if [[ -n ${PIN_CPU:-} && $cores -eq 1 ]]; then
+    cmd=(taskset -c "$([[ $code == bondem-second ]] && echo "$SECOND_CPU" || echo "$PIN_CPU")" "${cmd[@]}")
+  fi
   # The peers get one OpenMP thread per rank: their cores are MPI ranks.
-  OMP_NUM_THREADS=$([[ $code == bondem ]] && echo "$cores" || echo 1) \
+  OMP_NUM_THREADS=$([[ $code == bondem* ]] && echo "$cores" || echo 1) \
     /usr/bin/time -f '%e %M' -o "$times" "${cmd[@]}" >"$log" 2>&1 ||
     { echo "compare_peers: $code failed on the $lattice lattice ($cores cores); see $log" >&2; exit 1; }
   [[ $cores -eq 2 ]] && after=$(core_latency)
   read -r wall peak <"$times"
   [[ -f $ranks ]] && peak=$(awk '{ s += $1 } END { print s }' "$ranks")
-  if [[ $code == bondem ]]; then
+  if [[ $code == bondem* ]]; then
     loop_rate=$(awk -F' = ' '/^particle_steps_per_second/ { printf "%.0f", $2 }' "$log")
   else
     loop_rate=$(awk -v n="$particles" -v s="$steps" '/^Loop time of/ { printf "%.0f", n * s / $4; exit }' "$log")
@@ -170,7 +182,9 @@ for lattice in "${lattices[@]}"; do
   for cores in "${cores_list[@]}"; do
     first=$([[ $cores -eq 1 ]] && echo 2 || echo 1)  # the physics runs were 1-core repetition 1
     for ((r = first; r <= reps; ++r)); do
-      for code in "${codes[@]}"; do run_code "$lattice" "$code" "$cores" "$r"; done
+      for code in "${codes[@]}"; do
+        [[ $code == bondem-second && $cores -ne 1 ]] || run_code "$lattice" "$code" "$cores" "$r"
+      done
     done
   done
 done
@@ -185,6 +199,7 @@ done
       [[ -n $b ]] || continue
       for code in "${codes[@]}"; do
         runs=$(awk -F, -v l="$lattice" -v k="$code" -v c="$cores" '$1 == l && $2 == k && $3 == c' "$out/timings.csv" | wc -l)
+        [[ $runs -gt 0 ]] || continue  # bondem-second runs on one core only
         awk -v l="$lattice" -v k="$code" -v c="$cores" -v n="$runs" \
           -v w="$(column_median "$lattice" "$code" "$cores" 5)" -v m="$(column_median "$lattice" "$code" "$cores" 6)" \
           -v lr="$(column_median "$lattice" "$code" "$cores" 7)" -v p="$(column_median "$lattice" "$code" "$cores" 8)" \
