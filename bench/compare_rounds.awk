@@ -49,18 +49,19 @@ END {
   two_over_one("bondem", "", "bondem two cores over one")
   # With SECOND_CPU: what a perfect split over the two CPUs would give, 1 + t(first) / t(second)
   # from bondem's one-core runs on each, and bondem's two cores over one against it.
-  n = 0; text = ""; fraction_text = ""
+  n = 0; m = 0; text = ""; fraction_text = ""
   for (r = 1; r <= rounds; ++r) {
     if (!((1 SUBSEP r SUBSEP "bondem") in wall) || !((1 SUBSEP r SUBSEP "bondem-second") in wall)) continue
     v[++n] = 1 + wall[1, r, "bondem"] / wall[1, r, "bondem-second"]
     text = text (n > 1 ? ", " : "") sprintf("%.2f", v[n])
-    f[n] = ((2 SUBSEP r SUBSEP "bondem") in wall) ? wall[1, r, "bondem"] / wall[2, r, "bondem"] / v[n] : 0
-    fraction_text = fraction_text (n > 1 ? ", " : "") sprintf("%.2f", f[n])
+    if (!((2 SUBSEP r SUBSEP "bondem") in wall)) continue  # CORES without 2
+    f[++m] = wall[1, r, "bondem"] / wall[2, r, "bondem"] / v[n]
+    fraction_text = fraction_text (m > 1 ? ", " : "") sprintf("%.2f", f[m])
   }
   if (n > 0) {
     printf "| %s | two cores over one that a perfect split over both CPUs would give (bondem's one-core runs on each) | %s | %.2f |\n", l, text, median_of(v, n)
-    printf "| %s | bondem two cores over one, against that bound | %s | %.2f |\n", l, fraction_text, median_of(f, n)
   }
+  if (m > 0) printf "| %s | bondem two cores over one, against that bound | %s | %.2f |\n", l, fraction_text, median_of(f, m)
   label["near"] = "vCPUs sharing a cache (core to core < " kFarNs " ns)"
   label["far"] = "vCPUs on different dies (core to core > " kFarNs " ns)"
   split("bondem lammps liggghts", names, " ")
