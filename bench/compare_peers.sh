@@ -17,7 +17,11 @@
 #                           (code "bondem-second"), and report per round the two-core speed-up that
 #                           a perfect split over the two CPUs would give, 1 + t(PIN_CPU) /
 #                           t(SECOND_CPU), beside bondem's: on unequal vCPUs two threads cannot beat
-#                           it, whatever the code.
+#                           it, whatever the code. Each round also runs two one-core bondem runs at
+#                           once, one on each CPU (codes "bondem-pair-first" and "bondem-pair-second",
+#                           one output directory each), and reports the bound with both CPUs busy,
+#                           t(PIN_CPU) (1 / t(pair first) + 1 / t(pair second)): what the host gives
+#                           two cores working at the same moment, which a two-thread run needs.
 #
 # Per code and core count it reports the whole-process wall time (/usr/bin/time around the
 # command: start-up, set-up, the steps and bondem's final output files), particle-steps/s from
@@ -30,10 +34,11 @@
 # Around every two-core run, $build/bench/bench_core_latency measures the one-way latency of a
 # cache line between CPUs 0 and 1 (timings.csv's last two columns, before and after the run). On
 # this virtual machine the host moves its two vCPUs between cores that share a level-3 cache
-# (about 30 ns) and cores on different dies (about 170 ns) every few seconds to minutes; bondem's
-# two threads, which share cache lines, run about 1.35 times as long on different dies, while the
-# peers' MPI ranks and two independent runs do not notice. The rounds table reports each code's
-# two cores over one for each placement apart.
+# (about 30 ns) and cores on different dies (170-260 ns) every few seconds to minutes; bondem's
+# two threads, which share cache lines, run 1.1-1.35 times as long on different dies, two
+# independent runs barely notice, and the peers' MPI ranks notice in some hours and not in others
+# (on 2026-12-07 their two ranks gave 1.15-1.2 times one on the 20 800 lattice). The rounds table
+# reports each code's two cores over one for each placement apart.
 #
 # Needs `lmp`, `liggghts`, `mpirun` and GNU time (apt-get install --no-install-recommends lammps
 # liggghts time: without --no-install-recommends apt also pulls python3-paraview, which removes
@@ -55,8 +60,13 @@ codes=(bondem liggghts lammps)
 if [[ -n ${SECOND_CPU:-} ]]; then
   [[ $SECOND_CPU =~ ^[0-9]+$ ]] || { echo "compare_peers: SECOND_CPU must be a CPU number, not '$SECOND_CPU'" >&2; exit 2; }
   [[ -n ${PIN_CPU:-} ]] || { echo "compare_peers: SECOND_CPU needs PIN_CPU (the CPU it is compared with)" >&2; exit 2; }
-  codes+=(bondem-second)
+  codes+=(bondem-second bondem-pair)
 fi
+# The pair's two runs are reported apart.
+report_codes=()
+for code in "${codes[@]}"; do
+  if [[ $code == bondem-pair ]]; then report_codes+=(bondem-pair-first bondem-pair-second); else report_codes+=("$code"); fi
+done
 for tool in lmp liggghts mpirun /usr/bin/time taskset; do
   command -v "$tool" >/dev/null || { echo "compare_peers: '$tool' not found (see the header)" >&2; exit 2; }
 done
@@ -85,7 +95,7 @@ run_code() {
   local times="$out/$1.$2.$3.time" ranks="$out/$1.$2.$3.rss"
   local cmd
   case $code in
-    bondem | bondem-second) cmd=("$build/bondem" run "$repo/cases/bench/$case_file"
+    bondem | bondem-second | bondem-pair-*) cmd=("$build/bondem" run "$repo/cases/bench/$case_file"
       --output "$out/$code.$lattice.$cores" --threads "$cores" --quiet) ;;
     lammps) cmd=(lmp -in "$peer_input.lammps" -log none) ;;
     liggghts) cmd=(liggghts -in "$peer_input.liggghts" -log none) ;;
@@ -97,7 +107,7 @@ run_code() {
     cmd=(mpirun --allow-run-as-root -np "$cores" /usr/bin/time -f %M -a -o "$ranks" "${cmd[@]}")
   fi
   if [[ -n ${PIN_CPU:-} && $cores -eq 1 ]]; then
-    cmd=(taskset -c "$([[ $code == bondem-second ]] && echo "$SECOND_CPU" || echo "$PIN_CPU")" "${cmd[@]}")
+    cmd=(taskset -c "$([[ $code == *-second ]] && echo "$SECOND_CPU" || echo "$PIN_CPU")" "${cmd[@]}")
   fi
   # The peers get one OpenMP thread per rank: their cores are MPI ranks.
   OMP_NUM_THREADS=$([[ $code == bondem* ]] && echo "$cores" || echo 1) \
@@ -115,6 +125,16 @@ run_code() {
     -v lr="$loop_rate" -v p="$peak" -v b="$before" -v a="$after" \
     'BEGIN { printf "%s,%s,%d,%d,%.2f,%.0f,%s,%d,%s,%s\n", l, k, c, r, w, n * s / w, lr, p, b, a }' \
     >>"$out/timings.csv"
+}
+
+# Two one-core bondem runs at once, one on PIN_CPU and one on SECOND_CPU: rows bondem-pair-first
+# and bondem-pair-second of repetition `rep`.
+run_pair() {
+  local lattice=$1 rep=$2 first second
+  run_code "$lattice" bondem-pair-first 1 "$rep" & first=$!
+  run_code "$lattice" bondem-pair-second 1 "$rep" & second=$!
+  wait "$first" || exit 1  # run_code said why
+  wait "$second" || exit 1
 }
 
 # One-way latency [ns] of a cache line between CPUs 0 and 1 now; empty without the probe.
@@ -150,7 +170,9 @@ physics() {
 check_physics() {
   local lattice=$1 status=0 code step ke_b f_b ke f tolerance
   echo "== $lattice physics: kinetic energy [J] and floor force [N] at steps ${check_steps[*]} (1 core)"
-  for code in "${codes[@]}"; do run_code "$lattice" "$code" 1 1; done
+  for code in "${codes[@]}"; do
+    if [[ $code == bondem-pair ]]; then run_pair "$lattice" 1; else run_code "$lattice" "$code" 1 1; fi
+  done
   for step in "${check_steps[@]}"; do
     read -r ke_b f_b < <(physics "$lattice" bondem "$step")
     for code in liggghts lammps; do
@@ -183,7 +205,11 @@ for lattice in "${lattices[@]}"; do
     first=$([[ $cores -eq 1 ]] && echo 2 || echo 1)  # the physics runs were 1-core repetition 1
     for ((r = first; r <= reps; ++r)); do
       for code in "${codes[@]}"; do
-        [[ $code == bondem-second && $cores -ne 1 ]] || run_code "$lattice" "$code" "$cores" "$r"
+        if [[ $code == bondem-pair ]]; then
+          [[ $cores -ne 1 ]] || run_pair "$lattice" "$r"
+        elif [[ $code != bondem-second || $cores -eq 1 ]]; then
+          run_code "$lattice" "$code" "$cores" "$r"
+        fi
       done
     done
   done
@@ -197,7 +223,7 @@ done
     for cores in "${cores_list[@]}"; do
       b=$(column_median "$lattice" bondem "$cores" 6)
       [[ -n $b ]] || continue
-      for code in "${codes[@]}"; do
+      for code in "${report_codes[@]}"; do
         runs=$(awk -F, -v l="$lattice" -v k="$code" -v c="$cores" '$1 == l && $2 == k && $3 == c' "$out/timings.csv" | wc -l)
         [[ $runs -gt 0 ]] || continue  # bondem-second runs on one core only
         awk -v l="$lattice" -v k="$code" -v c="$cores" -v n="$runs" \

@@ -29,7 +29,7 @@ $1 == l {
   }
   code[$2] = 1
   if ($4 > rounds) rounds = $4
-  if ($2 != "bondem" && $2 != "bondem-second") peer[$2] = 1
+  if ($2 !~ /^bondem/) peer[$2] = 1
   cores[$3] = 1
 }
 END {
@@ -62,6 +62,22 @@ END {
     printf "| %s | two cores over one that a perfect split over both CPUs would give (bondem's one-core runs on each) | %s | %.2f |\n", l, text, median_of(v, n)
   }
   if (m > 0) printf "| %s | bondem two cores over one, against that bound | %s | %.2f |\n", l, fraction_text, median_of(f, m)
+  # The same bound with both CPUs busy at once (two one-core runs side by side, one on each):
+  # t(first alone) (1 / t(pair first) + 1 / t(pair second)).
+  n = 0; m = 0; text = ""; fraction_text = ""
+  for (r = 1; r <= rounds; ++r) {
+    if (!((1 SUBSEP r SUBSEP "bondem") in wall) || !((1 SUBSEP r SUBSEP "bondem-pair-first") in wall) ||
+        !((1 SUBSEP r SUBSEP "bondem-pair-second") in wall)) continue
+    v[++n] = wall[1, r, "bondem"] * (1 / wall[1, r, "bondem-pair-first"] + 1 / wall[1, r, "bondem-pair-second"])
+    text = text (n > 1 ? ", " : "") sprintf("%.2f", v[n])
+    if (!((2 SUBSEP r SUBSEP "bondem") in wall)) continue
+    f[++m] = wall[1, r, "bondem"] / wall[2, r, "bondem"] / v[n]
+    fraction_text = fraction_text (m > 1 ? ", " : "") sprintf("%.2f", f[m])
+  }
+  if (n > 0) {
+    printf "| %s | the same bound with both CPUs busy (two one-core runs at once, one on each) | %s | %.2f |\n", l, text, median_of(v, n)
+  }
+  if (m > 0) printf "| %s | bondem two cores over one, against the bound with both busy | %s | %.2f |\n", l, fraction_text, median_of(f, m)
   label["near"] = "vCPUs sharing a cache (core to core < " kFarNs " ns)"
   label["far"] = "vCPUs on different dies (core to core > " kFarNs " ns)"
   split("bondem lammps liggghts", names, " ")
