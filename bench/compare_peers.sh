@@ -36,9 +36,9 @@
 # this virtual machine the host moves its two vCPUs between cores that share a level-3 cache
 # (about 30 ns) and cores on different dies (170-260 ns) every few seconds to minutes; bondem's
 # two threads, which share cache lines, run 1.1-1.35 times as long on different dies, two
-# independent runs barely notice, and the peers' MPI ranks notice in some hours and not in others
-# (on 2026-12-07 their two ranks gave 1.15-1.2 times one on the 20 800 lattice). The rounds table
-# reports each code's two cores over one for each placement apart.
+# independent runs barely notice, and the peers' MPI ranks more in some stretches than in others
+# (on 2026-12-07, within an hour of far placement, 1.15-1.77 times one core on the 20 800
+# lattice). The rounds table reports each code's two cores over one for each placement apart.
 #
 # Needs `lmp`, `liggghts`, `mpirun` and GNU time (apt-get install --no-install-recommends lammps
 # liggghts time: without --no-install-recommends apt also pulls python3-paraview, which removes
@@ -130,11 +130,13 @@ run_code() {
 # Two one-core bondem runs at once, one on PIN_CPU and one on SECOND_CPU: rows bondem-pair-first
 # and bondem-pair-second of repetition `rep`.
 run_pair() {
-  local lattice=$1 rep=$2 first second
+  local lattice=$1 rep=$2 first second status=0
   run_code "$lattice" bondem-pair-first 1 "$rep" & first=$!
   run_code "$lattice" bondem-pair-second 1 "$rep" & second=$!
-  wait "$first" || exit 1  # run_code said why
-  wait "$second" || exit 1
+  # Both waited for, so that a failure leaves no run behind; run_code said why.
+  wait "$first" || status=1
+  wait "$second" || status=1
+  [[ $status -eq 0 ]] || exit 1
 }
 
 # One-way latency [ns] of a cache line between CPUs 0 and 1 now; empty without the probe.
