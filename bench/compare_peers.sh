@@ -139,6 +139,16 @@ run_pair() {
   [[ $status -eq 0 ]] || exit 1
 }
 
+# One entry of `codes` at one core count: bondem-second and the pair run on one core only.
+run_entry() {
+  local lattice=$1 code=$2 cores=$3 rep=$4
+  case $code in
+    bondem-pair) [[ $cores -ne 1 ]] || run_pair "$lattice" "$rep" ;;
+    bondem-second) [[ $cores -ne 1 ]] || run_code "$lattice" "$code" "$cores" "$rep" ;;
+    *) run_code "$lattice" "$code" "$cores" "$rep" ;;
+  esac
+}
+
 # One-way latency [ns] of a cache line between CPUs 0 and 1 now; empty without the probe.
 core_latency() {
   [[ -x $build/bench/bench_core_latency ]] || return 0
@@ -172,9 +182,7 @@ physics() {
 check_physics() {
   local lattice=$1 status=0 code step ke_b f_b ke f tolerance
   echo "== $lattice physics: kinetic energy [J] and floor force [N] at steps ${check_steps[*]} (1 core)"
-  for code in "${codes[@]}"; do
-    if [[ $code == bondem-pair ]]; then run_pair "$lattice" 1; else run_code "$lattice" "$code" 1 1; fi
-  done
+  for code in "${codes[@]}"; do run_entry "$lattice" "$code" 1 1; done
   for step in "${check_steps[@]}"; do
     read -r ke_b f_b < <(physics "$lattice" bondem "$step")
     for code in liggghts lammps; do
@@ -206,13 +214,7 @@ for lattice in "${lattices[@]}"; do
   for cores in "${cores_list[@]}"; do
     first=$([[ $cores -eq 1 ]] && echo 2 || echo 1)  # the physics runs were 1-core repetition 1
     for ((r = first; r <= reps; ++r)); do
-      for code in "${codes[@]}"; do
-        if [[ $code == bondem-pair ]]; then
-          [[ $cores -ne 1 ]] || run_pair "$lattice" "$r"
-        elif [[ $code != bondem-second || $cores -eq 1 ]]; then
-          run_code "$lattice" "$code" "$cores" "$r"
-        fi
-      done
+      for code in "${codes[@]}"; do run_entry "$lattice" "$code" "$cores" "$r"; done
     done
   done
 done
@@ -227,7 +229,7 @@ done
       [[ -n $b ]] || continue
       for code in "${report_codes[@]}"; do
         runs=$(awk -F, -v l="$lattice" -v k="$code" -v c="$cores" '$1 == l && $2 == k && $3 == c' "$out/timings.csv" | wc -l)
-        [[ $runs -gt 0 ]] || continue  # bondem-second runs on one core only
+        [[ $runs -gt 0 ]] || continue  # bondem-second and the pair run on one core only
         awk -v l="$lattice" -v k="$code" -v c="$cores" -v n="$runs" \
           -v w="$(column_median "$lattice" "$code" "$cores" 5)" -v m="$(column_median "$lattice" "$code" "$cores" 6)" \
           -v lr="$(column_median "$lattice" "$code" "$cores" 7)" -v p="$(column_median "$lattice" "$code" "$cores" 8)" \

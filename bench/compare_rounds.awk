@@ -22,6 +22,22 @@ function two_over_one(k, kind, title,    r, n, text, v) {
   }
   if (n > 0) printf "| %s | %s | %s | %.2f |\n", l, title, text, median_of(v, n)
 }
+# Per round, what a split over two CPUs whose one-core runs took t(a) and t(b) would give against
+# bondem's one-core run, t(bondem) (1 / t(a) + 1 / t(b)), as the row `title`, and bondem's two
+# cores over one against it as the row `against`.
+function bound_rows(a, b, title, against,    r, n, m, text, fraction_text, v, f) {
+  n = 0; m = 0; text = ""; fraction_text = ""
+  for (r = 1; r <= rounds; ++r) {
+    if (!((1 SUBSEP r SUBSEP "bondem") in wall) || !((1 SUBSEP r SUBSEP a) in wall) || !((1 SUBSEP r SUBSEP b) in wall)) continue
+    v[++n] = wall[1, r, "bondem"] * (1 / wall[1, r, a] + 1 / wall[1, r, b])
+    text = text (n > 1 ? ", " : "") sprintf("%.2f", v[n])
+    if (!((2 SUBSEP r SUBSEP "bondem") in wall)) continue  # CORES without 2
+    f[++m] = wall[1, r, "bondem"] / wall[2, r, "bondem"] / v[n]
+    fraction_text = fraction_text (m > 1 ? ", " : "") sprintf("%.2f", f[m])
+  }
+  if (n > 0) printf "| %s | %s | %s | %.2f |\n", l, title, text, median_of(v, n)
+  if (m > 0) printf "| %s | %s | %s | %.2f |\n", l, against, fraction_text, median_of(f, m)
+}
 $1 == l {
   wall[$3, $4, $2] = $5
   if ($3 == 2 && $9 != "" && $10 != "") {
@@ -47,37 +63,14 @@ END {
     if (n > 0) printf "| %s | bondem / faster peer, %d core%s | %s | %.2f |\n", l, c, (c > 1 ? "s" : ""), text, median_of(v, n)
   }
   two_over_one("bondem", "", "bondem two cores over one")
-  # With SECOND_CPU: what a perfect split over the two CPUs would give, 1 + t(first) / t(second)
-  # from bondem's one-core runs on each, and bondem's two cores over one against it.
-  n = 0; m = 0; text = ""; fraction_text = ""
-  for (r = 1; r <= rounds; ++r) {
-    if (!((1 SUBSEP r SUBSEP "bondem") in wall) || !((1 SUBSEP r SUBSEP "bondem-second") in wall)) continue
-    v[++n] = 1 + wall[1, r, "bondem"] / wall[1, r, "bondem-second"]
-    text = text (n > 1 ? ", " : "") sprintf("%.2f", v[n])
-    if (!((2 SUBSEP r SUBSEP "bondem") in wall)) continue  # CORES without 2
-    f[++m] = wall[1, r, "bondem"] / wall[2, r, "bondem"] / v[n]
-    fraction_text = fraction_text (m > 1 ? ", " : "") sprintf("%.2f", f[m])
-  }
-  if (n > 0) {
-    printf "| %s | two cores over one that a perfect split over both CPUs would give (bondem's one-core runs on each) | %s | %.2f |\n", l, text, median_of(v, n)
-  }
-  if (m > 0) printf "| %s | bondem two cores over one, against that bound | %s | %.2f |\n", l, fraction_text, median_of(f, m)
-  # The same bound with both CPUs busy at once (two one-core runs side by side, one on each):
-  # t(first alone) (1 / t(pair first) + 1 / t(pair second)).
-  n = 0; m = 0; text = ""; fraction_text = ""
-  for (r = 1; r <= rounds; ++r) {
-    if (!((1 SUBSEP r SUBSEP "bondem") in wall) || !((1 SUBSEP r SUBSEP "bondem-pair-first") in wall) ||
-        !((1 SUBSEP r SUBSEP "bondem-pair-second") in wall)) continue
-    v[++n] = wall[1, r, "bondem"] * (1 / wall[1, r, "bondem-pair-first"] + 1 / wall[1, r, "bondem-pair-second"])
-    text = text (n > 1 ? ", " : "") sprintf("%.2f", v[n])
-    if (!((2 SUBSEP r SUBSEP "bondem") in wall)) continue
-    f[++m] = wall[1, r, "bondem"] / wall[2, r, "bondem"] / v[n]
-    fraction_text = fraction_text (m > 1 ? ", " : "") sprintf("%.2f", f[m])
-  }
-  if (n > 0) {
-    printf "| %s | the same bound with both CPUs busy (two one-core runs at once, one on each) | %s | %.2f |\n", l, text, median_of(v, n)
-  }
-  if (m > 0) printf "| %s | bondem two cores over one, against the bound with both busy | %s | %.2f |\n", l, fraction_text, median_of(f, m)
+  # With SECOND_CPU: the two-core speed-up a perfect split over the two CPUs would give, from
+  # bondem's one-core runs on each alone (1 + t(first) / t(second)) and at the same moment.
+  bound_rows("bondem", "bondem-second",
+             "two cores over one that a perfect split over both CPUs would give (bondem's one-core runs on each)",
+             "bondem two cores over one, against that bound")
+  bound_rows("bondem-pair-first", "bondem-pair-second",
+             "the same bound with both CPUs busy (two one-core runs at once, one on each)",
+             "bondem two cores over one, against the bound with both busy")
   label["near"] = "vCPUs sharing a cache (core to core < " kFarNs " ns)"
   label["far"] = "vCPUs on different dies (core to core > " kFarNs " ns)"
   split("bondem lammps liggghts", names, " ")
