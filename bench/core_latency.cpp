@@ -9,9 +9,6 @@
 /// threads share cache lines: the particles and force slots one writes and the other reads).
 /// bench/compare_peers.sh runs this probe beside every two-core run and reports the ratios of
 /// each placement apart.
-#include <pthread.h>
-#include <sched.h>
-
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -21,15 +18,11 @@
 #include <thread>
 #include <vector>
 
+#include "pin_cpu.hpp"
+
 namespace {
 
-/// Pins the calling thread to @p cpu; false if the CPU is not available to the process.
-bool pin_to(int cpu) {
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  CPU_SET(cpu, &set);
-  return pthread_setaffinity_np(pthread_self(), sizeof set, &set) == 0;
-}
+using bondem::bench::pin_to;
 
 /// The shared line: the counter each side waits on, alone in its cache line.
 struct alignas(64) Line {

@@ -13,9 +13,6 @@
 /// Why: bondem's two threads exchange the particles and force slots of the planes where their
 /// shares meet, about 170 kB a step on the 20 800 peer lattice; what that costs per step, against
 /// the step's time, depends on the host's placement of the vCPUs (bench_core_latency).
-#include <pthread.h>
-#include <sched.h>
-
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -26,19 +23,15 @@
 #include <thread>
 #include <vector>
 
+#include "pin_cpu.hpp"
+
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
 
 namespace {
 
-/// Pins the calling thread to @p cpu; false if the CPU is not available to the process.
-bool pin_to(int cpu) {
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  CPU_SET(cpu, &set);
-  return pthread_setaffinity_np(pthread_self(), sizeof set, &set) == 0;
-}
+using bondem::bench::pin_to;
 
 double seconds_now() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
@@ -102,9 +95,10 @@ int main(int argc, char** argv) {
     return 2;
   }
 
-  // Turns: 0 writer owned (twice), 1 reader, 2 writer shared, 3 reader, 4 writer streamed, ...
-  // Each round: the writer writes its own lines, then lines the reader has read, then streams
-  // them; the reader reads after each of the last two.
+  // Three turns a round: the writer writes the buffer twice (the second timed: lines it holds
+  // alone), the reader reads it (timed: lines the other core has modified), the writer writes it
+  // once more (timed: lines the reader holds too), with ordinary stores in even rounds and
+  // streaming stores in odd ones.
   constexpr int kRounds = 400;
   std::atomic<int> turn{0};
   std::atomic<bool> pinned_b{true};
@@ -115,7 +109,7 @@ int main(int argc, char** argv) {
     for (int round = 0; round < kRounds; ++round) {
       while (turn.load(std::memory_order_acquire) != 3 * round) {
       }
-      write_buffer(buffer, count, round, false);  // take the lines back (unmeasured)
+      write_buffer(buffer, count, round, false);  // after a streamed turn, from memory: untimed
       double start = seconds_now();
       write_buffer(buffer, count, round + 0.5, false);
       owned.push_back(seconds_now() - start);
