@@ -572,6 +572,8 @@ RunResult run_case(Case description, const RunOptions& options, std::ostream& lo
   std::vector<SlipRecord>().swap(description.initial_pairs);
   std::optional<Stepper> stepper;
   std::string history_text;  // of the checkpoint a restart continues
+  // Only VTK frames read each pair's force (their contacts).
+  scene.pair_forces_read = description.vtk_interval > 0.0;
   if (plan.restarting) {
     Checkpoint restored =
         read_fitting_checkpoint(description, options, plan, scene, scene.particles.size());

@@ -4,6 +4,7 @@
 // sticking and sliding friction with stored springs, rolling resistance, spinning particles; and
 // the targets against each other, bit for bit.
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <cmath>
@@ -18,6 +19,7 @@
 
 #include "run_helpers.hpp"
 #include "solver/engine/contact_kernel.hpp"
+#include "solver/engine/fused_pass.hpp"
 #include "solver/engine/pair_kernel_simd.hpp"
 #include "solver/engine/scene.hpp"
 #include "solver/engine/stepper.hpp"
@@ -31,7 +33,7 @@ constexpr double kRadius = 1e-3;
 /// 0.08 mm: overlaps from gaps of a few tenths of a millimetre to about 0.3 mm; materials
 /// alternate. With @p walls, gravity and a floor and a ceiling that cut into the bottom and top
 /// layers.
-Scene jittered_packing(int per_axis = 9, bool walls = false) {
+Scene jittered_packing(int per_axis = 9, bool walls = false, bool ids_along_x = false) {
   Case c;
   c.source = "test";
   c.materials.push_back({"a", 2000.0, 1.0e8, 0.3});
@@ -54,9 +56,13 @@ Scene jittered_packing(int per_axis = 9, bool walls = false) {
   std::mt19937_64 random(42);
   std::uniform_real_distribution<double> jitter(-8e-5, 8e-5);
   std::uniform_real_distribution<double> size(0.9 * kRadius, 1.1 * kRadius);
-  for (int x = 0; x < per_axis; ++x) {
-    for (int y = 0; y < per_axis; ++y) {
-      for (int z = 0; z < per_axis; ++z) {
+  for (int a = 0; a < per_axis; ++a) {
+    for (int b = 0; b < per_axis; ++b) {
+      for (int c_ = 0; c_ < per_axis; ++c_) {
+        // Ids along z, or with ids_along_x along x, the order of the list's cells.
+        const int x = ids_along_x ? c_ : a;
+        const int y = b;
+        const int z = ids_along_x ? a : c_;
         ParticleSpec p;
         p.material = (x + y + z) % 2;
         p.radius = size(random);
@@ -508,6 +514,82 @@ TEST(PairKernelSimd, StepsDriftedAheadMatchSettledSteps) {
           EXPECT_TRUE(testing::same_bits(scenes[way].boundaries[1].center[axis],
                                          scenes[0].boundaries[1].center[axis]))
               << "way " << way << ", ceiling, axis " << axis;
+        }
+      }
+    }
+  }
+}
+
+// The fused pass (fused_pass.hpp) runs pass 2 and the drift of each run of rows right behind its
+// pass 1, from a ring of records, and the particles whose pairs the ring no longer holds or another
+// thread's rows hold at the end from the records it kept: every sum in its order, so the bits of
+// the two passes. On the walled packing (ids along the cells' order, where the pass applies) with a
+// sliding ceiling, sailing across the periodic faces (rebuilds that reorder), with runs of 256
+// rows and a ring of 1 024 pairs or more (particles wait: wraps and pairs out of reach), on one
+// thread and two (particles wait at the cut), with a drift ahead and where nothing reads the pairs'
+// forces: 30 steps must move every particle and load both walls as the two passes do.
+TEST(PairKernelSimd, FusedPassGivesTheBitsOfTheTwoPasses) {
+  struct Restore {
+    std::size_t from = set_fused_pass_from(0);
+    std::pair<std::size_t, std::uint32_t> shape = set_fused_pass_shape(256, 1024);
+    std::size_t kinematics = set_kinematics_records_below(0);
+    std::size_t records = set_pair_records_below(0);
+    int threads = omp_get_max_threads();
+    ~Restore() {
+      set_fused_pass_from(from);
+      set_fused_pass_shape(shape.first, shape.second);
+      set_kinematics_records_below(kinematics);
+      set_pair_records_below(records);
+      omp_set_num_threads(threads);
+    }
+  } restore;
+  constexpr int kSteps = 30;
+  for (const int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    for (const bool ahead : {true, false}) {
+      SCOPED_TRACE(std::to_string(threads) +
+                   (ahead ? " threads, drift ahead" : " threads, no read"));
+      std::vector<Scene> scenes;
+      scenes.reserve(2);  // each stepper holds its scene
+      std::vector<std::unique_ptr<Stepper>> steppers;
+      for (const bool fused : {true, false}) {
+        set_fused_pass_from(fused ? 0 : std::numeric_limits<std::size_t>::max());
+        Scene& scene = scenes.emplace_back(jittered_packing(17, true, true));
+        for (PairCoefficients& pair : scene.pair_table) pair.rolling_friction = 0.0;
+        scene.max_overlap_fraction = 0.5;
+        scene.reorder_interval = 1;
+        scene.pair_forces_read = ahead;
+        scene.boundaries[1].motion.keys = {{0.0, Eigen::Vector3d(0.05, 0.0, -0.5), 0.0}};
+        for (double& vx : scene.particles.vx) vx += 20.0;  // a rebuild every few dozen steps
+        Stepper& stepper = *steppers.emplace_back(std::make_unique<Stepper>(scene));
+        for (int s = 0; s < kSteps; ++s) {
+          stepper.drift_ahead(ahead && s + 1 < kSteps);
+          stepper.step();
+        }
+        EXPECT_FALSE(stepper.drifted());
+        EXPECT_GE(stepper.neighbors().build_count(), 2);
+        if (fused) {
+          // Every evaluation but the last (settled) one with a drift ahead; each, with no read.
+          EXPECT_GE(stepper.fused_evaluations(), kSteps - 1);
+        } else {
+          EXPECT_EQ(stepper.fused_evaluations(), 0);
+        }
+      }
+      const Particles& fused = scenes[0].particles;
+      const Particles& two_passes = scenes[1].particles;
+      ASSERT_EQ(fused.size(), two_passes.size());
+      for (std::size_t i = 0; i < fused.size(); ++i) {
+        ASSERT_TRUE(testing::same_motion(fused, i, two_passes, i)) << "particle " << i;
+      }
+      EXPECT_EQ(steppers[0]->contacts().contacts, steppers[1]->contacts().contacts);
+      EXPECT_EQ(steppers[0]->contacts().wall_contacts, steppers[1]->contacts().wall_contacts);
+      for (std::size_t wall = 0; wall < 2; ++wall) {
+        const Eigen::Vector3d load = steppers[0]->boundary_loads()[wall].force;
+        const Eigen::Vector3d two_pass_load = steppers[1]->boundary_loads()[wall].force;
+        EXPECT_NE(two_pass_load.z(), 0.0) << "wall " << wall;  // both walls hold contacts
+        for (int axis = 0; axis < 3; ++axis) {
+          EXPECT_TRUE(testing::same_bits(load[axis], two_pass_load[axis]))
+              << "wall " << wall << ", axis " << axis;
         }
       }
     }

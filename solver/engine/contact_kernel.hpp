@@ -582,7 +582,8 @@ void mesh_boundary_contacts(Particles& p, const Scene& scene, const Law& law, st
 /// and torque arrays: the additions of gather_pair_range_into<true, false>, in its order, a
 /// record's in lanes (pair_kernel_simd.cpp, dispatched to the target in use).
 void gather_record_range(Particles& p, const NeighborList& list, const double* records,
-                         const Eigen::Vector3d& gravity, std::size_t first, std::size_t end);
+                         const Eigen::Vector3d& gravity, std::size_t first, std::size_t end,
+                         std::uint32_t mask = ~std::uint32_t{0});
 
 /// Particles per block of gather_forces, the unit its threads share out.
 inline constexpr std::size_t kWallLoadBlock = 64;
@@ -605,9 +606,10 @@ enum class PairSums { kAll, kForce, kTorque };
 /// ParticleLoad held by reference stayed in memory, and every add waited for the store of the one
 /// before it (measured: the locals made the 20 800 peer lattice 1.10 times faster). With @p kSums
 /// kForce or kTorque only those sums (each component's additions the same as with kAll).
-template <bool kFriction, bool kRolling, bool kThermal, PairSums kSums = PairSums::kAll>
+template <bool kFriction, bool kRolling, bool kThermal, PairSums kSums = PairSums::kAll,
+          class Slots = PairForces>
 [[gnu::always_inline]] inline void gather_pairs(const Particles& p, const NeighborList& list,
-                                                const PairForces& pf, std::size_t i,
+                                                const Slots& pf, std::size_t i,
                                                 ParticleLoad& load) {
   constexpr bool kForce = kSums != PairSums::kTorque;
   constexpr bool kTorque = kFriction && kSums != PairSums::kForce;
@@ -666,8 +668,8 @@ void gather_pair_range(const Particles& p, const NeighborList& list, const PairF
 /// for a block no boundary can touch in a run without heat: the same sums, without the block's
 /// loads in between (their stores and the copy out were a twentieth of the 20 800 peer lattice).
 /// With @p kSums kForce or kTorque only those arrays (gather_pairs).
-template <bool kFriction, bool kRolling, PairSums kSums = PairSums::kAll>
-void gather_pair_range_into(Particles& p, const NeighborList& list, const PairForces& pf,
+template <bool kFriction, bool kRolling, PairSums kSums = PairSums::kAll, class Slots = PairForces>
+void gather_pair_range_into(Particles& p, const NeighborList& list, const Slots& pf,
                             const Eigen::Vector3d& gravity, std::size_t first, std::size_t end) {
   constexpr bool kForce = kSums != PairSums::kTorque;
   constexpr bool kTorque = kFriction && kSums != PairSums::kForce;
@@ -683,7 +685,7 @@ void gather_pair_range_into(Particles& p, const NeighborList& list, const PairFo
     ParticleLoad load{
         kForce ? Eigen::Vector3d(p.mass[i] * gravity) : Eigen::Vector3d(Eigen::Vector3d::Zero()),
         Eigen::Vector3d::Zero()};
-    gather_pairs<kFriction, kRolling, false, kSums>(p, list, pf, i, load);
+    gather_pairs<kFriction, kRolling, false, kSums, Slots>(p, list, pf, i, load);
     if constexpr (kForce) {
       force_x[i] = load.force.x();
       force_y[i] = load.force.y();
@@ -856,6 +858,120 @@ void gather_boundary(Particles& p, const Scene& scene, const Law& law, std::size
       sphere_surface_area(p.radius[i]), scene.ambient_temperature, p.temperature[i]);
   load.heat += exchange.heat;
   load.conductance += exchange.conductance;
+}
+
+/// One force-slot array of a FusedRing: pair k's value at [k mod (mask + 1)].
+struct RingSlot {
+  const double* values;
+  std::uint32_t mask;
+  double operator[](std::uint32_t k) const { return values[k & mask]; }
+};
+
+/// The slots of a FusedRing as pass 2 reads them (gather_pairs), in place of PairForces.
+struct RingSlots {
+  RingSlot fx, fy, fz, cx, cy, cz, overlap;
+};
+
+/// Where the fused pass keeps the pairs that are read after its ring has moved past them (the
+/// pairs of the particles that wait for the end of pass 1): a record each, (fx, fy, fz, delta,
+/// cx, cy, cz, 0), for the pairs marked in @c bits (numbered by their rank among them) and for
+/// the pairs of two ranges of pair indices (numbered from their range's base).
+struct KeptPairs {
+  const std::uint64_t* bits = nullptr;  ///< a bit per pair: kept whatever the ranges
+  const std::uint32_t* rank = nullptr;  ///< per 64 pairs, the marked pairs before them
+  /// Ranges [from, to) of pairs kept too, and the record index of each range's first pair:
+  /// windows[3 w], windows[3 w + 1], windows[3 w + 2] for w < window_count.
+  const std::uint32_t* windows = nullptr;
+  int window_count = 0;
+  double* records = nullptr;
+
+  /// The range holding pair @p k, or -1.
+  int in_window(std::uint32_t k) const {
+    for (int w = 0; w < window_count; ++w) {
+      if (k >= windows[3 * w] && k < windows[3 * w + 1]) return w;
+    }
+    return -1;
+  }
+  /// Whether pair @p k is kept.
+  bool kept(std::uint32_t k) const {
+    return in_window(k) >= 0 || ((bits[k >> 6] >> (k & 63)) & 1) != 0;
+  }
+  /// Pair @p k's record (a kept pair's).
+  double* record(std::uint32_t k) const {
+    const int w = in_window(k);
+    if (w >= 0) return records + 8 * std::size_t{windows[3 * w + 2] + (k - windows[3 * w])};
+    const std::uint64_t below = bits[k >> 6] & ((std::uint64_t{1} << (k & 63)) - 1);
+    const auto before = static_cast<std::uint32_t>(__builtin_popcountll(below));
+    return records + 8 * std::size_t{rank[k >> 6] + before};
+  }
+};
+
+/// One value of the kept pairs' records as pass 2 reads it (gather_pairs), @c field of each.
+struct KeptField {
+  const KeptPairs* kept;
+  int field;
+  double operator[](std::uint32_t k) const { return kept->record(k)[field]; }
+};
+
+/// The kept pairs as pass 2 reads them, in place of PairForces.
+struct KeptSlots {
+  KeptField fx, fy, fz, cx, cy, cz, overlap;
+  explicit KeptSlots(const KeptPairs& kept)
+      : fx{&kept, 0},
+        fy{&kept, 1},
+        fz{&kept, 2},
+        cx{&kept, 4},
+        cy{&kept, 5},
+        cz{&kept, 6},
+        overlap{&kept, 3} {}
+};
+
+/// The records of a FusedRing: pair k's at records + 8 (k & mask) (gather_record_range).
+struct RingRecords {
+  const double* records;
+  std::uint32_t mask;
+};
+
+/// Pass 2 of particles [@p first, @p end) in a run without heat or rolling slots, straight into
+/// their force and torque arrays: weight and pair sums from @p slots (PairForces or RingSlots),
+/// forces then torques (PairSums), then every boundary's contacts, into @p share_load as in
+/// gather_forces: the additions of gather_forces's run without heat, in its order. For the fused
+/// pass (Stepper), which sums each run as soon as pass 1 has done the rows its pairs sit in.
+template <bool kFriction, bool kModels, class Law, class Slots>
+ContactSummary gather_range(Particles& p, const Scene& scene, const NeighborList& list,
+                            const std::vector<BoundaryCandidates>& candidates,
+                            const std::vector<BoundaryFrame>& frames, const Law& law,
+                            const Slots& slots, ExactSum* share_load, std::size_t first,
+                            std::size_t end) {
+  if constexpr (std::is_same_v<Slots, RingRecords>) {
+    gather_record_range(p, list, slots.records, scene.gravity, first, end, slots.mask);
+  } else {
+    gather_pair_range_into<kFriction, false, PairSums::kForce>(p, list, slots, scene.gravity, first,
+                                                               end);
+    if constexpr (kFriction) {
+      gather_pair_range_into<kFriction, false, PairSums::kTorque>(p, list, slots, scene.gravity,
+                                                                  first, end);
+    }
+  }
+  ContactSummary summary;
+  thread_local MeshQueryBuffer buffer;  // reused: mesh queries allocate only while it grows
+  for (std::size_t block = first; block < end;) {
+    const std::size_t block_end = std::min(end, (block / kWallLoadBlock + 1) * kWallLoadBlock);
+    if (boundary_within_reach(scene, candidates, block, block_end)) {
+      BoundaryTally tally;
+      BoundaryTally uncounted;
+      for (std::size_t b = 0; b < scene.boundaries.size(); ++b) {
+        gather_boundary<kFriction, kModels>(p, scene, law, b, frames[b], candidates[b], block,
+                                            block_end, false, nullptr, buffer, share_load, nullptr,
+                                            nullptr, tally, uncounted);
+      }
+      summary.wall_contacts += tally.contacts;
+      summary.max_overlap = std::max(summary.max_overlap, tally.max_overlap);
+      summary.max_overlap_fraction = std::max(summary.max_overlap_fraction, tally.max_fraction);
+    }
+    block = block_end;
+  }
+  return summary;
 }
 
 /// What gather_forces calls with (share, first, end) once particles [first, end) are loaded.

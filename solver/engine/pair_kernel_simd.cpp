@@ -51,6 +51,16 @@ struct LanePassArgs {
   /// Whether the lanes write the force slots (F, n x F_t, delta) with non-temporal stores
   /// (set_stream_pair_slots_from).
   bool stream_slots;
+  /// Where pair k's force slots lie: slots[v] + (k - slot_shift), v in the order fx, fy, fz, cx,
+  /// cy, cz, overlap. The arrays of @c out (shift 0), or a ring of the fused pass
+  /// (simd_pair_forces_fused).
+  double* slots[7];
+  std::uint32_t slot_shift;
+  /// Where pair k's record lies, if the pass writes records (PairForces::records, or a ring of
+  /// them): records + 8 (k - slot_shift); null: the slots.
+  double* records;
+  /// Where the pairs read after the fused pass's ring has moved on are copied to; null: none.
+  const KeptPairs* kept;
 };
 }  // namespace bondem::detail
 #endif
@@ -507,7 +517,8 @@ HWY_INLINE void store_records(D d, const Lanes3<D>& f, hn::Vec<D> delta, const L
 /// same operations per component in the same order, so the same bytes. Against the seven arrays'
 /// scalar adds (about 7 cycles a visit), the 20 800 peer lattice 0.90 of the time.
 void GatherRecords(Particles& p, const NeighborList& list, const double* HWY_RESTRICT records,
-                   double gx, double gy, double gz, std::size_t first, std::size_t end) {
+                   double gx, double gy, double gz, std::size_t first, std::size_t end,
+                   std::uint32_t mask) {
   const hn::CappedTag<double, 8> d;
   constexpr std::size_t N = hn::MaxLanes(d);
   constexpr std::size_t kVectors = 8 / N;
@@ -525,7 +536,7 @@ void GatherRecords(Particles& p, const NeighborList& list, const double* HWY_RES
     for (std::size_t c = 0; c < kVectors; ++c) acc[c] = hn::Mul(m, per_mass[c]);
     const double r = radius[i];
     const auto add = [&](std::uint32_t k, double sign) HWY_ATTR {
-      const double* rec = records + 8 * std::size_t{k};
+      const double* rec = records + 8 * std::size_t{k & mask};
       const double lever = pair_lever(r, rec[3]);
       if constexpr (kVectors == 1) {
         const V factor = hn::IfThenElse(hn::FirstN(d, 4), hn::Set(d, sign), hn::Set(d, lever));
@@ -572,7 +583,11 @@ HWY_INLINE void evaluate_block(const detail::LanePassArgs& a, PairBlock& b, std:
   const V dt = hn::Set(d, a.scene->time_step);
   PairForces& out = *a.out;
   PairHistory& history = *a.history;
-  double* const records = out.in_records() ? out.records.data() : nullptr;  // else the arrays
+  // Pair k's record at records + 8 k, slot v at slot(v, k).
+  double* const records =
+      a.records != nullptr ? a.records - 8 * std::size_t{a.slot_shift} : nullptr;
+  const auto slot = [&](int v, std::uint32_t k)
+                        HWY_ATTR { return a.slots[v] + (k - a.slot_shift); };
   const LanePairConstants& c0 = a.constants[0];
   const auto constant = [&](int v, double uniform_value, std::uint32_t s) HWY_ATTR {
     return a.uniform ? hn::Set(d, uniform_value) : hn::Load(d, b.constant[v] + s);
@@ -620,13 +635,9 @@ HWY_INLINE void evaluate_block(const detail::LanePassArgs& a, PairBlock& b, std:
       if (records != nullptr) {
         std::fill(records + 8 * std::size_t{k}, records + 8 * (std::size_t{k} + valid), 0.0);
       } else {
-        for (double* to : {out.fx.data(), out.fy.data(), out.fz.data()}) {
-          store_slot(d, zero, valid, to + k, a.stream_slots);
-        }
+        for (int v = 0; v < 3; ++v) store_slot(d, zero, valid, slot(v, k), a.stream_slots);
         if constexpr (kFriction) {
-          for (double* to : {out.cx.data(), out.cy.data(), out.cz.data(), out.overlap.data()}) {
-            store_slot(d, zero, valid, to + k, a.stream_slots);
-          }
+          for (int v = 3; v < 7; ++v) store_slot(d, zero, valid, slot(v, k), a.stream_slots);
         }
       }
       hn::Store(zero, d, b.bonded + s);
@@ -710,10 +721,10 @@ HWY_INLINE void evaluate_block(const detail::LanePassArgs& a, PairBlock& b, std:
                     hn::IfThenElseZero(contact, per_lever.y),
                     hn::IfThenElseZero(contact, per_lever.z)};
       if (records == nullptr) {  // else stored with the force below
-        store_slot(d, lever_slot.x, valid, out.cx.data() + k, a.stream_slots);
-        store_slot(d, lever_slot.y, valid, out.cy.data() + k, a.stream_slots);
-        store_slot(d, lever_slot.z, valid, out.cz.data() + k, a.stream_slots);
-        store_slot(d, positive_overlap, valid, out.overlap.data() + k, a.stream_slots);
+        store_slot(d, lever_slot.x, valid, slot(3, k), a.stream_slots);
+        store_slot(d, lever_slot.y, valid, slot(4, k), a.stream_slots);
+        store_slot(d, lever_slot.z, valid, slot(5, k), a.stream_slots);
+        store_slot(d, positive_overlap, valid, slot(6, k), a.stream_slots);
       }
       store_lanes(d, hn::IfThenElseZero(contact, spring.x), valid, history.sx.data() + k);
       store_lanes(d, hn::IfThenElseZero(contact, spring.y), valid, history.sy.data() + k);
@@ -737,9 +748,9 @@ HWY_INLINE void evaluate_block(const detail::LanePassArgs& a, PairBlock& b, std:
       store_records(d, force_slot, positive_overlap, lever_slot, valid,
                     records + 8 * std::size_t{k});
     } else {
-      store_slot(d, force_slot.x, valid, out.fx.data() + k, a.stream_slots);
-      store_slot(d, force_slot.y, valid, out.fy.data() + k, a.stream_slots);
-      store_slot(d, force_slot.z, valid, out.fz.data() + k, a.stream_slots);
+      store_slot(d, force_slot.x, valid, slot(0, k), a.stream_slots);
+      store_slot(d, force_slot.y, valid, slot(1, k), a.stream_slots);
+      store_slot(d, force_slot.z, valid, slot(2, k), a.stream_slots);
     }
     tally.contacts += hn::CountTrue(d, contact);
     tally.bonds += hn::CountTrue(d, bonded);
@@ -776,6 +787,38 @@ HWY_INLINE bool none_set(const std::uint8_t* flags, std::uint32_t count) {
   }
   for (; s < count; ++s) any |= flags[s];
   return any == 0;
+}
+
+/// Whether some pair of [@p first_k, first_k + @p count) is kept (LanePassArgs::kept).
+HWY_INLINE bool any_kept(const KeptPairs& kept, std::uint32_t first_k, std::uint32_t count) {
+  for (int w = 0; w < kept.window_count; ++w) {
+    if (first_k < kept.windows[3 * w + 1] && first_k + count > kept.windows[3 * w]) return true;
+  }
+  const std::uint32_t end = first_k + count;
+  for (std::uint32_t word = first_k >> 6; word <= (end - 1) >> 6; ++word) {
+    std::uint64_t bits = kept.bits[word];
+    if (word == first_k >> 6) bits &= ~std::uint64_t{0} << (first_k & 63);
+    if (word == (end - 1) >> 6 && (end & 63) != 0) bits &= (std::uint64_t{1} << (end & 63)) - 1;
+    if (bits != 0) return true;
+  }
+  return false;
+}
+
+/// Copies the records (or slots) of the kept pairs of [@p first_k, first_k + @p count) from the
+/// ring into their kept records (LanePassArgs::kept).
+HWY_INLINE void keep_pairs(const detail::LanePassArgs& a, std::uint32_t first_k,
+                           std::uint32_t count) {
+  const KeptPairs& kept = *a.kept;
+  for (std::uint32_t k = first_k; k < first_k + count; ++k) {
+    if (!kept.kept(k)) continue;
+    double* to = kept.record(k);
+    if (a.records != nullptr) {
+      std::copy(a.records + 8 * std::size_t{k - a.slot_shift},
+                a.records + 8 * std::size_t{k - a.slot_shift} + 8, to);
+    } else {  // without friction: the force alone
+      for (int v = 0; v < 3; ++v) to[v] = a.slots[v][k - a.slot_shift];
+    }
+  }
 }
 
 /// Pass 1 over rows [@p first_row, @p last_row), one thread's share of the particles: pack,
@@ -837,6 +880,7 @@ ContactSummary LanePass(const detail::LanePassArgs& a, std::size_t first_row,
     pad_block(b, count, (count + lanes - 1) / lanes * lanes);
     const std::size_t bonds_before = tally.bonds;
     evaluate_block<kFriction>(a, b, block, count, tally);
+    if (a.kept != nullptr && any_kept(*a.kept, block, count)) keep_pairs(a, block, count);
     if (a.counted == nullptr) {  // every pair counted: a loop without branches
       std::uint8_t* HWY_RESTRICT flags = out.bonded.data() + block;
       // No pair of the block bonded, before or now (most blocks of most runs): the flags stay 0.
@@ -1087,6 +1131,10 @@ std::size_t set_stream_pair_slots_from(std::size_t particles) {
   return stream_slots_from.exchange(particles, std::memory_order_relaxed);
 }
 
+bool pass_reads_records(std::size_t particles) {
+  return reads_records(particles);
+}
+
 std::size_t set_kinematics_records_below(std::size_t particles) {
   return records_below.exchange(particles, std::memory_order_relaxed);
 }
@@ -1129,22 +1177,31 @@ bool keeps_pair_records(std::size_t particles, bool friction, bool rolling, bool
 }
 
 void gather_record_range(Particles& p, const NeighborList& list, const double* records,
-                         const Eigen::Vector3d& gravity, std::size_t first, std::size_t end) {
+                         const Eigen::Vector3d& gravity, std::size_t first, std::size_t end,
+                         std::uint32_t mask) {
   HWY_DYNAMIC_DISPATCH(GatherRecords)
-  (p, list, records, gravity.x(), gravity.y(), gravity.z(), first, end);
+  (p, list, records, gravity.x(), gravity.y(), gravity.z(), first, end, mask);
 }
 
-ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const NeighborList& list,
-                                std::span<const LanePairConstants> constants,
-                                const BondingCriterion& criterion_met, PairForces& out,
-                                PairHistory& history, const std::uint8_t* counted,
-                                ThreadSplit* split, LanePassScratch* scratch) {
-  simd_target_in_use();  // chooses the best target on first use
+namespace {
+/// What a call of the pass sets up: the periodic shifts by image code and the pass's arguments,
+/// which point at them.
+struct LaneSetup {
   double shift_x[27], shift_y[27], shift_z[27];
+  detail::LanePassArgs args;
+};
+
+/// Sets up @p setup for a pass over the pairs of @p list that writes their slots into @p out's
+/// arrays (LanePassArgs::slots), reading @p records where they are set.
+void prepare_lanes(LaneSetup& setup, const Particles& p, const Scene& scene,
+                   const NeighborList& list, std::span<const LanePairConstants> constants,
+                   const BondingCriterion& criterion_met, PairForces& out, PairHistory& history,
+                   const std::uint8_t* counted, const SweepRecords& records) {
+  simd_target_in_use();  // chooses the best target on first use
   for (std::size_t code = 0; code < 27; ++code) {
-    shift_x[code] = list.shift_table()[code].x();
-    shift_y[code] = list.shift_table()[code].y();
-    shift_z[code] = list.shift_table()[code].z();
+    setup.shift_x[code] = list.shift_table()[code].x();
+    setup.shift_y[code] = list.shift_table()[code].y();
+    setup.shift_z[code] = list.shift_table()[code].z();
   }
   // The criterion is the same for every pair when every material pair never or always bonds.
   const auto all = [&](BondCriterion criterion) {
@@ -1153,6 +1210,38 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
   };
   const int uniform_criterion =
       all(BondCriterion::kNever) ? 0 : (all(BondCriterion::kAlways) ? 1 : -1);
+  const std::size_t n = p.size();
+  setup.args = detail::LanePassArgs{&p,
+                                    &scene,
+                                    &list,
+                                    constants.data(),
+                                    &criterion_met,
+                                    &out,
+                                    &history,
+                                    constants.size() == 1,
+                                    !out.roll_x.empty(),
+                                    uniform_criterion,
+                                    setup.shift_x,
+                                    setup.shift_y,
+                                    setup.shift_z,
+                                    counted,
+                                    n >= kPrefetchParticles,
+                                    records.kinematics,
+                                    records.spins,
+                                    n >= stream_slots_from.load(std::memory_order_relaxed),
+                                    {out.fx.data(), out.fy.data(), out.fz.data(), out.cx.data(),
+                                     out.cy.data(), out.cz.data(), out.overlap.data()},
+                                    0,
+                                    out.in_records() ? out.records.data() : nullptr,
+                                    nullptr};
+}
+}  // namespace
+
+ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const NeighborList& list,
+                                std::span<const LanePairConstants> constants,
+                                const BondingCriterion& criterion_met, PairForces& out,
+                                PairHistory& history, const std::uint8_t* counted,
+                                ThreadSplit* split, LanePassScratch* scratch) {
   const std::size_t n = p.size();
   const std::size_t chunks = (n + kPairPassChunk - 1) / kPairPassChunk;
   ThreadSplit equal_shares;
@@ -1183,24 +1272,9 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
     StaggeredVector<double>().swap(scratch->kinematics);  // a run that grew past the threshold
   }
   scratch->current = false;  // the particles move on after this pass
-  const detail::LanePassArgs args{&p,
-                                  &scene,
-                                  &list,
-                                  constants.data(),
-                                  &criterion_met,
-                                  &out,
-                                  &history,
-                                  constants.size() == 1,
-                                  !out.roll_x.empty(),
-                                  uniform_criterion,
-                                  shift_x,
-                                  shift_y,
-                                  shift_z,
-                                  counted,
-                                  p.size() >= kPrefetchParticles,
-                                  records.kinematics,
-                                  records.spins,
-                                  n >= stream_slots_from.load(std::memory_order_relaxed)};
+  LaneSetup setup;
+  prepare_lanes(setup, p, scene, list, constants, criterion_met, out, history, counted, records);
+  const detail::LanePassArgs& args = setup.args;
   const auto pass = scene.friction ? HWY_DYNAMIC_DISPATCH(LanePassWithFriction)
                                    : HWY_DYNAMIC_DISPATCH(LanePassWithoutFriction);
   return split->run(
@@ -1210,6 +1284,55 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
                     std::min(n, end_chunk * kPairPassChunk));
       },
       add_pair_summary);
+}
+
+ContactSummary simd_pair_forces_fused(const Particles& p, const Scene& scene,
+                                      const NeighborList& list,
+                                      std::span<const LanePairConstants> constants,
+                                      const BondingCriterion& criterion_met, PairForces& out,
+                                      PairHistory& history, const FusedRing& ring,
+                                      std::size_t first_row, std::size_t end_row,
+                                      const std::function<void(std::size_t, std::size_t)>& done) {
+  const std::size_t n = p.size();
+  if (reads_records(n) || !out.records.empty() || !out.fx.empty()) {
+    throw std::logic_error("simd_pair_forces_fused: a pass with records or rolling slots");
+  }
+  LaneSetup setup;
+  prepare_lanes(setup, p, scene, list, constants, criterion_met, out, history, nullptr, {});
+  detail::LanePassArgs& args = setup.args;
+  args.stream_slots = false;  // the ring stays in the caches
+  args.kept = &ring.kept;
+  for (int v = 0; v < 7; ++v) args.slots[v] = ring.slots[v];
+  args.records = ring.records;
+  const int arrays = scene.friction ? 7 : 3;
+  const auto pass = scene.friction ? HWY_DYNAMIC_DISPATCH(LanePassWithFriction)
+                                   : HWY_DYNAMIC_DISPATCH(LanePassWithoutFriction);
+  const StaggeredVector<std::uint32_t>& row_begin = list.row_begins();
+  const std::uint32_t mask = ring.pairs - 1;
+  ContactSummary summary;
+  for (std::size_t row = first_row; row < end_row;) {
+    const std::size_t end = std::min(end_row, (row / ring.run_rows + 1) * ring.run_rows);
+    const std::uint32_t first_k = row_begin[row];
+    const std::uint32_t pairs = row_begin[end] - first_k;
+    if (pairs > ring.pairs)
+      throw std::logic_error("simd_pair_forces_fused: a run outgrows the ring");
+    // The run's slots lie contiguous from first_k mod ring.pairs; what passes the ring's end is
+    // moved to its front, so that pair k's slots lie at k mod ring.pairs.
+    const std::uint32_t start = first_k & mask;
+    args.slot_shift = first_k - start;
+    add_pair_summary(summary, pass(args, row, end));
+    if (start + pairs > ring.pairs && ring.records != nullptr) {
+      std::copy(ring.records + 8 * std::size_t{ring.pairs},
+                ring.records + 8 * (std::size_t{start} + pairs), ring.records);
+    } else if (start + pairs > ring.pairs) {
+      for (int v = 0; v < arrays; ++v) {
+        std::copy(ring.slots[v] + ring.pairs, ring.slots[v] + start + pairs, ring.slots[v]);
+      }
+    }
+    done(row, end);
+    row = end;
+  }
+  return summary;
 }
 
 }  // namespace bondem

@@ -11,6 +11,8 @@
 /// (select_simd_target). Every target gives the same bytes: the lanes perform the same IEEE
 /// operations in the same order on every target, scalar included (contact_lanes-inl.h).
 
+#include <cstdint>
+#include <functional>
 #include <optional>
 #include <span>
 #include <string>
@@ -103,6 +105,9 @@ std::size_t set_pair_records_below(std::size_t particles);
 /// with @p friction, without @p rolling resistance or heat (@p thermal), below the limit.
 bool keeps_pair_records(std::size_t particles, bool friction, bool rolling, bool thermal);
 
+/// Whether the SIMD pass over @p particles particles reads kinematics records
+/// (set_kinematics_records_below).
+bool pass_reads_records(std::size_t particles);
 /// Where the opening sweep writes the kinematics records of the next pass: null where none.
 struct SweepRecords {
   double* kinematics = nullptr;  ///< SweepArrays::records
@@ -130,4 +135,28 @@ ContactSummary simd_pair_forces(const Particles& p, const Scene& scene, const Ne
                                 PairHistory& history, const std::uint8_t* counted = nullptr,
                                 ThreadSplit* split = nullptr, LanePassScratch* scratch = nullptr);
 
+/// Where simd_pair_forces_fused keeps its force slots: a ring of @c pairs pairs.
+struct FusedRing {
+  /// fx, fy, fz, cx, cy, cz, overlap (the first three without friction), 2 @c pairs each: pair
+  /// k's at [k mod pairs] once its run is done.
+  double* slots[7] = {};
+  /// Or, where set (with friction), records (fx, fy, fz, delta, cx, cy, cz, 0), 2 @c pairs of
+  /// them: pair k's at 8 (k mod pairs).
+  double* records = nullptr;
+  std::uint32_t pairs = 0;  ///< a power of two, at least the pairs of any run
+  /// Where the pairs read after the ring has moved past them are copied to.
+  KeptPairs kept;
+  std::size_t run_rows = 0;  ///< rows per run
+};
+/// Pass 1 as simd_pair_forces over rows [@p first_row, @p end_row) on the calling thread, run by
+/// run (runs end on multiples of @p ring.run_rows), the slots in @p ring, calling
+/// @p done(first, end) after each run [first, end). No kinematics or pair records, no rolling
+/// slots, every pair counted.
+ContactSummary simd_pair_forces_fused(const Particles& p, const Scene& scene,
+                                      const NeighborList& list,
+                                      std::span<const LanePairConstants> constants,
+                                      const BondingCriterion& criterion_met, PairForces& out,
+                                      PairHistory& history, const FusedRing& ring,
+                                      std::size_t first_row, std::size_t end_row,
+                                      const std::function<void(std::size_t, std::size_t)>& done);
 }  // namespace bondem

@@ -91,8 +91,147 @@ Stepper::Stepper(Scene& scene, StepperState restored, CarriedPairs carried, Pair
   removed_ = restored.removed;
 }
 
+bool Stepper::takes_fused_pass(bool ahead) {
+  const Particles& p = scene_.particles;
+  const std::size_t n = p.size();
+  // Without a drift ahead the pass still pays where nothing reads each pair's force (a VTK frame
+  // does): it keeps no force slots.
+  if ((!ahead && scene_.pair_forces_read) || lane_constants_.empty() || !counted_.empty() ||
+      p.thermal() || p.contact_history || scene_.rolling() || n < fused_pass_from() ||
+      pass_reads_records(n) || keeps_pair_records(n, scene_.friction, false, false)) {
+    return false;
+  }
+  const int shares = threads_in_use(n);
+  if (fused_plan_.builds != list_.build_count() || fused_plan_.particles != n ||
+      fused_plan_.friction != scene_.friction || fused_plan_.shares != shares) {
+    plan_fused_pass(list_, n, scene_.friction, shares, fused_plan_);
+  }
+  return fused_plan_.usable;
+}
+
+template <bool kFriction, class Law>
+ContactSummary Stepper::evaluate_fused(const Law& law, bool ahead) {
+  Particles& p = scene_.particles;
+  const std::size_t n = p.size();
+  const BondingCriterion criterion{p, pair_forces_.bonded, pair_flag_ ? &pair_flag_ : nullptr};
+  boundary_frames_.clear();
+  for (const Boundary& boundary : scene_.boundaries) boundary_frames_.push_back(frame_of(boundary));
+  // The shares of the split every pass takes, without stealing: a share's rows must be done by
+  // the thread whose ring holds their pairs.
+  step_split_.prepare((n + kPairPassChunk - 1) / kPairPassChunk, threads_in_use(n));
+  const int shares = step_split_.threads();
+  fused_rows_.resize(static_cast<std::size_t>(shares) + 1);
+  for (int s = 0; s <= shares; ++s) {
+    fused_rows_[static_cast<std::size_t>(s)] = std::min(n, step_split_.begin(s) * kPairPassChunk);
+  }
+  cut_fused_pass(fused_plan_, list_, fused_rows_, fused_cuts_);
+  const std::size_t stride = scene_.boundaries.size() * kBoundaryLoadValues;
+  wall_loads_.assign(static_cast<std::size_t>(shares) * stride, ExactSum{});
+  ahead_parts_.assign(static_cast<std::size_t>(shares), {});
+  std::vector<ContactSummary> parts(static_cast<std::size_t>(shares));
+  std::vector<double> seconds(static_cast<std::size_t>(shares), 0.0);
+  const SweepArrays arrays = ahead ? sweep_arrays(true) : SweepArrays{};
+  // Pass 2 of particles [first, end) from @p slots, on share @p s's sums, and their drift ahead.
+  const auto sum = [&](int s, const auto& slots, std::size_t first, std::size_t end) {
+    const auto share = static_cast<std::size_t>(s);
+    const ContactSummary walls =
+        gather_range<kFriction, false>(p, scene_, list_, boundary_candidates_, boundary_frames_,
+                                       law, slots, wall_loads_.data() + share * stride, first, end);
+    ContactSummary& part = parts[share];
+    part.wall_contacts += walls.wall_contacts;
+    part.max_overlap = std::max(part.max_overlap, walls.max_overlap);
+    part.max_overlap_fraction = std::max(part.max_overlap_fraction, walls.max_overlap_fraction);
+    if (ahead) {
+      ahead_parts_[share].result.merge(closing_opening_sweep(arrays, scene_.time_step, first, end));
+    }
+  };
+  const std::vector<std::uint32_t>& waiting = fused_cuts_.ranges;
+  const auto share_pass = [&](int s) {
+    const double start = omp_get_wtime();
+    const auto share = static_cast<std::size_t>(s);
+    const FusedRing ring = fused_ring(fused_plan_, fused_cuts_, s);
+    const std::uint32_t mask = ring.pairs - 1;
+    const RingRecords ring_records{ring.records, mask};
+    const RingSlots ring_slots{{ring.slots[0], mask}, {ring.slots[1], mask}, {ring.slots[2], mask},
+                               {ring.slots[3], mask}, {ring.slots[4], mask}, {ring.slots[5], mask},
+                               {ring.slots[6], mask}};
+    // The first range of waiting particles not wholly before the run.
+    std::size_t next = 0;
+    const ContactSummary pairs = simd_pair_forces_fused(
+        p, scene_, list_, lane_constants_, criterion, pair_forces_, history_, ring,
+        fused_rows_[share], fused_rows_[share + 1], [&](std::size_t row, std::size_t end) {
+          for (std::size_t at = row; at < end;) {
+            while (next < waiting.size() && waiting[next + 1] <= at) next += 2;
+            if (next < waiting.size() && waiting[next] <= at) {
+              at = std::min<std::size_t>(end, waiting[next + 1]);
+              continue;
+            }
+            const std::size_t stop =
+                next < waiting.size() ? std::min<std::size_t>(end, waiting[next]) : end;
+            if (ring.records != nullptr) {
+              sum(s, ring_records, at, stop);
+            } else {
+              sum(s, ring_slots, at, stop);
+            }
+            at = stop;
+          }
+        });
+    add_pair_summary(parts[share], pairs);
+    seconds[share] = omp_get_wtime() - start;
+  };
+  // The particles that waited for every share's pass 1, from the records it kept of their pairs:
+  // the team's thread @p t of @p team takes its part of them in particle order.
+  std::size_t waiting_count = 0;
+  for (std::size_t r = 0; r < waiting.size(); r += 2) waiting_count += waiting[r + 1] - waiting[r];
+  const KeptSlots kept(fused_cuts_.kept);
+  const auto waiting_pass = [&](int t, int team) {
+    const std::size_t from = waiting_count * static_cast<std::size_t>(t) / team;
+    const std::size_t to = waiting_count * static_cast<std::size_t>(t + 1) / team;
+    std::size_t before = 0;  // waiting particles in the ranges before r
+    for (std::size_t r = 0; r < waiting.size() && before < to; r += 2) {
+      const std::size_t size = waiting[r + 1] - waiting[r];
+      const std::size_t first = waiting[r] + (std::max(from, before) - before);
+      const std::size_t end = waiting[r] + (std::min(to, before + size) - before);
+      if (first < end) sum(t, kept, first, end);
+      before += size;
+    }
+  };
+  if (shares == 1) {
+    share_pass(0);
+    waiting_pass(0, 1);
+  } else {
+#pragma omp parallel num_threads(shares)
+    {
+      const int team = omp_get_num_threads();
+      const int me = omp_get_thread_num();
+      for (int s = me; s < shares; s += team) share_pass(s);
+#pragma omp barrier
+      waiting_pass(me, team);
+    }
+    step_split_.add_pending(seconds, {});
+  }
+  ContactSummary summary;
+  for (const ContactSummary& part : parts) {
+    add_pair_summary(summary, part);
+    summary.wall_contacts += part.wall_contacts;
+  }
+  // With a drift ahead every particle has drifted: a pair past the overlap limit ends the step
+  // drifted, as a boundary past it does in the two passes.
+  drifted_ = ahead;
+  if (ahead) {
+    ahead_sweep_ = SweepResult{};
+    for (const SharedSweepResult& part : ahead_parts_) ahead_sweep_.merge(part.result);
+    lane_scratch_.current = arrays.records != nullptr;
+  }
+  ++fused_evaluations_;
+  return summary;
+}
+
 template <bool kFriction, bool kModels, class Law>
 ContactSummary Stepper::evaluate_forces(const Law& law, bool ahead) {
+  if constexpr (!kModels && std::is_same_v<Law, BondNormalLaw>) {
+    if (fused_now_) return evaluate_fused<kFriction>(law, ahead);
+  }
   const BondingCriterion criterion{scene_.particles, pair_forces_.bonded,
                                    pair_flag_ ? &pair_flag_ : nullptr};
   const std::uint8_t* counted = counted_.empty() ? nullptr : counted_.data();
@@ -143,7 +282,11 @@ void Stepper::compute_forces(double laser_time, bool ahead) {
   const Particles& p = scene_.particles;
   const bool records = !lane_constants_.empty() && !p.contact_history &&
                        keeps_pair_records(p.size(), scene_.friction, scene_.rolling(), p.thermal());
-  if (pair_forces_.pairs() != list_.pair_count() || pair_forces_.in_records() != records) {
+  fused_now_ = takes_fused_pass(ahead);
+  if (fused_now_) {
+    // Its force slots are a ring per thread and the records of the pairs it keeps.
+    if (pair_forces_.pairs() != 0) release_pair_forces();
+  } else if (pair_forces_.pairs() != list_.pair_count() || pair_forces_.in_records() != records) {
     pair_forces_.resize(list_.pair_count(), scene_.friction, scene_.rolling(), p.thermal(),
                         records);
   }

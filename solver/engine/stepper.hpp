@@ -14,6 +14,7 @@
 #include "solver/engine/boundary_candidates.hpp"
 #include "solver/engine/contact_kernel.hpp"
 #include "solver/engine/exact_sum.hpp"
+#include "solver/engine/fused_pass.hpp"
 #include "solver/engine/neighbor_list.hpp"
 #include "solver/engine/pair_kernel_simd.hpp"
 #include "solver/engine/particle_sweeps_simd.hpp"
@@ -159,6 +160,8 @@ class Stepper {
   /// Whether the last step() took the next one's opening kicks and drift (drift_ahead()): until
   /// the next step(), positions are those of the next step's forces.
   bool drifted() const { return drifted_; }
+  /// How many force evaluations took the fused pass (fused_pass.hpp) so far.
+  std::int64_t fused_evaluations() const { return fused_evaluations_; }
 
   /// The state to checkpoint together with the particles. With @p arrays kOmitted, the list's
   /// build positions and the pairs' state (StepperState::list.x0..z0 and slips) are left empty: a
@@ -256,6 +259,11 @@ class Stepper {
   /// Both passes with the normal-force law @p law; returns what they saw, merged.
   template <bool kFriction, bool kModels, class Law>
   ContactSummary evaluate_forces(const Law& law, bool ahead);
+  /// Whether this step's forces take the fused pass (fused_pass.hpp); plans it for the list.
+  bool takes_fused_pass(bool ahead);
+  /// Both passes, and with @p ahead the drift ahead, as the fused pass.
+  template <bool kFriction, class Law>
+  ContactSummary evaluate_fused(const Law& law, bool ahead);
   /// The laser's heat deposit of this step into p.heat_rate (thermal runs with a laser).
   void deposit_laser(double laser_time);
   /// The particle arrays of the sweeps (drift, finish_step), as they are now; with
@@ -351,7 +359,12 @@ class Stepper {
   /// Per material pair, the SIMD pass's constants; empty where the run takes the scalar pass
   /// (simd_pass_applies).
   std::vector<LanePairConstants> lane_constants_;
-  LanePassScratch lane_scratch_;  ///< the SIMD pass's buffers, kept across steps
+  LanePassScratch lane_scratch_;         ///< the SIMD pass's buffers, kept across steps
+  FusedPlan fused_plan_;                 ///< the fused pass's, for the current build of the list
+  std::vector<std::size_t> fused_rows_;  ///< the fused pass's shares' first rows, and n
+  FusedCuts fused_cuts_;                 ///< its waiting particles and kept pairs
+  bool fused_now_ = false;               ///< whether this evaluation takes it
+  std::int64_t fused_evaluations_ = 0;   ///< fused_evaluations()
   /// The threads' shares of the particles, one split for every pass of a step (the sweeps, pass 1's
   /// rows, pass 2): a particle's data then stay in one core's caches from pass to pass. Moved
   /// once a step by the passes' summed cost per chunk (thread_split.hpp).
