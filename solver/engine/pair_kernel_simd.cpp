@@ -1294,7 +1294,7 @@ ContactSummary simd_pair_forces_fused(const Particles& p, const Scene& scene,
                                       std::size_t first_row, std::size_t end_row,
                                       const std::function<void(std::size_t, std::size_t)>& done) {
   const std::size_t n = p.size();
-  if (reads_records(n) || !out.records.empty() || !out.fx.empty()) {
+  if (reads_records(n) || out.in_records() || !out.roll_x.empty()) {
     throw std::logic_error("simd_pair_forces_fused: a pass with records or rolling slots");
   }
   LaneSetup setup;

@@ -151,7 +151,7 @@ struct FusedRing {
 /// Pass 1 as simd_pair_forces over rows [@p first_row, @p end_row) on the calling thread, run by
 /// run (runs end on multiples of @p ring.run_rows), the slots in @p ring, calling
 /// @p done(first, end) after each run [first, end). No kinematics or pair records, no rolling
-/// slots, every pair counted.
+/// slots, every pair counted; @p out's force slots, if it has any, are left as they were.
 ContactSummary simd_pair_forces_fused(const Particles& p, const Scene& scene,
                                       const NeighborList& list,
                                       std::span<const LanePairConstants> constants,

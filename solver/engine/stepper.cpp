@@ -284,8 +284,11 @@ void Stepper::compute_forces(double laser_time, bool ahead) {
                        keeps_pair_records(p.size(), scene_.friction, scene_.rolling(), p.thermal());
   fused_now_ = takes_fused_pass(ahead);
   if (fused_now_) {
-    // Its force slots are a ring per thread and the records of the pairs it keeps.
-    if (pair_forces_.pairs() != 0) release_pair_forces();
+    // Its force slots are a ring per thread and the records of the pairs it keeps. Where some
+    // output reads each pair's force, the two passes' slots stay for the steps it reads (the
+    // fused pass leaves them as they were): freed and refilled, a 10^6 run would pay for their
+    // pages at every frame.
+    if (!scene_.pair_forces_read && pair_forces_.pairs() != 0) release_pair_forces();
   } else if (pair_forces_.pairs() != list_.pair_count() || pair_forces_.in_records() != records) {
     pair_forces_.resize(list_.pair_count(), scene_.friction, scene_.rolling(), p.thermal(),
                         records);
