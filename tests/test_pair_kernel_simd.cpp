@@ -33,7 +33,7 @@ constexpr double kRadius = 1e-3;
 /// 0.08 mm: overlaps from gaps of a few tenths of a millimetre to about 0.3 mm; materials
 /// alternate. With @p walls, gravity and a floor and a ceiling that cut into the bottom and top
 /// layers.
-Scene jittered_packing(int per_axis = 9, bool walls = false, bool ids_along_x = false) {
+Scene jittered_packing(int per_axis = 9, bool walls = false) {
   Case c;
   c.source = "test";
   c.materials.push_back({"a", 2000.0, 1.0e8, 0.3});
@@ -56,13 +56,9 @@ Scene jittered_packing(int per_axis = 9, bool walls = false, bool ids_along_x = 
   std::mt19937_64 random(42);
   std::uniform_real_distribution<double> jitter(-8e-5, 8e-5);
   std::uniform_real_distribution<double> size(0.9 * kRadius, 1.1 * kRadius);
-  for (int a = 0; a < per_axis; ++a) {
-    for (int b = 0; b < per_axis; ++b) {
-      for (int c_ = 0; c_ < per_axis; ++c_) {
-        // Ids along z, or with ids_along_x along x, the order of the list's cells.
-        const int x = ids_along_x ? c_ : a;
-        const int y = b;
-        const int z = ids_along_x ? a : c_;
+  for (int x = 0; x < per_axis; ++x) {
+    for (int y = 0; y < per_axis; ++y) {
+      for (int z = 0; z < per_axis; ++z) {
         ParticleSpec p;
         p.material = (x + y + z) % 2;
         p.radius = size(random);
@@ -523,7 +519,7 @@ TEST(PairKernelSimd, StepsDriftedAheadMatchSettledSteps) {
 // The fused pass (fused_pass.hpp) runs pass 2 and the drift of each run of rows right behind its
 // pass 1, from a ring of records, and the particles whose pairs the ring no longer holds or another
 // thread's rows hold at the end from the records it kept: every sum in its order, so the bits of
-// the two passes. On the walled packing (ids along the cells' order, where the pass applies) with a
+// the two passes. On the walled packing (ids grow along every axis, as the cells do) with a
 // sliding ceiling, sailing across the periodic faces (rebuilds that reorder), with runs of 256
 // rows and a ring of 1 024 pairs or more (particles wait: wraps and pairs out of reach), on one
 // thread and two (particles wait at the cut), with a drift ahead and where nothing reads the pairs'
@@ -554,7 +550,7 @@ TEST(PairKernelSimd, FusedPassGivesTheBitsOfTheTwoPasses) {
       std::vector<std::unique_ptr<Stepper>> steppers;
       for (const bool fused : {true, false}) {
         set_fused_pass_from(fused ? 0 : std::numeric_limits<std::size_t>::max());
-        Scene& scene = scenes.emplace_back(jittered_packing(17, true, true));
+        Scene& scene = scenes.emplace_back(jittered_packing(17, true));
         for (PairCoefficients& pair : scene.pair_table) pair.rolling_friction = 0.0;
         scene.max_overlap_fraction = 0.5;
         scene.reorder_interval = 1;
@@ -594,6 +590,37 @@ TEST(PairKernelSimd, FusedPassGivesTheBitsOfTheTwoPasses) {
       }
     }
   }
+}
+
+// Where a particle's pairs lie far from it in memory (the packing's ids shuffled: a pair sits in
+// the row of its smaller id, anywhere), more than an eighth of the particles would wait: the plan
+// says so, and the stepper takes the two passes.
+TEST(PairKernelSimd, FusedPassStandsAsideWhereMostParticlesWouldWait) {
+  struct Restore {
+    std::size_t from = set_fused_pass_from(0);
+    std::pair<std::size_t, std::uint32_t> shape = set_fused_pass_shape(256, 1024);
+    std::size_t kinematics = set_kinematics_records_below(0);
+    std::size_t records = set_pair_records_below(0);
+    ~Restore() {
+      set_fused_pass_from(from);
+      set_fused_pass_shape(shape.first, shape.second);
+      set_kinematics_records_below(kinematics);
+      set_pair_records_below(records);
+    }
+  } restore;
+  Scene scene = jittered_packing(17, true);
+  for (PairCoefficients& pair : scene.pair_table) pair.rolling_friction = 0.0;
+  scene.max_overlap_fraction = 0.5;
+  scene.pair_forces_read = false;
+  std::mt19937_64 random(7);
+  std::shuffle(scene.particles.id.begin(), scene.particles.id.end(), random);
+  Stepper stepper(scene);
+  for (int s = 0; s < 3; ++s) stepper.step();
+  EXPECT_EQ(stepper.fused_evaluations(), 0);
+  FusedPlan plan;
+  plan_fused_pass(stepper.neighbors(), scene.particles.size(), true, 1, plan);
+  EXPECT_FALSE(plan.usable);
+  EXPECT_TRUE(plan.waits.empty());  // nothing kept for it
 }
 
 TEST(PairKernelSimd, TargetNamesRoundTrip) {

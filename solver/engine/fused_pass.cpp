@@ -75,6 +75,19 @@ void plan_fused_pass(const NeighborList& list, std::size_t particles, bool frict
       plan.waiting.push_back(static_cast<std::uint32_t>(i + 1));
     }
   }
+  const auto count = static_cast<std::size_t>(std::max(shares, 1));
+  // A list whose pairs lie far from their particles in memory (ids that do not follow the cells'
+  // order): the two passes, and nothing kept for it.
+  const auto unusable = [&] {
+    plan.usable = false;
+    std::vector<std::uint8_t>().swap(plan.waits);
+    std::vector<std::uint32_t>().swap(plan.waiting);
+    std::vector<std::uint64_t>().swap(plan.bits);
+    std::vector<std::uint32_t>().swap(plan.rank);
+    std::vector<std::vector<double>>().swap(plan.ring_storage);
+    std::vector<double>().swap(plan.kept_records);
+  };
+  if (waiting > n / 8) return unusable();
   // The reach, and the pairs of the particles that always wait, marked.
   plan.reach = 0;
   plan.bits.assign((list.pair_count() + 63) / 64 + 1, 0);
@@ -92,13 +105,13 @@ void plan_fused_pass(const NeighborList& list, std::size_t particles, bool frict
     marked += static_cast<std::uint32_t>(__builtin_popcountll(plan.bits[word]));
   }
   plan.marked = marked;
-  const auto count = static_cast<std::size_t>(std::max(shares, 1));
-  plan.usable = waiting <= n / 8 && (count == 1 || plan.reach * count * 4 <= n);
+  if (count > 1 && plan.reach * count * 4 > n) return unusable();
+  plan.usable = true;
   // Records (8 doubles a pair) or three slot arrays, each a ring and a run past it (a run's pairs
   // lie contiguous until the part past the ring's end is moved to its front), on 64-B lines.
   const std::size_t span = std::size_t{ring_pairs} + most_pairs + 64;
   const std::size_t values = friction ? 8 * span + 8 : 3 * span + 32;
-  plan.ring_storage.resize(plan.usable ? count : 0);
+  plan.ring_storage.resize(count);
   for (std::vector<double>& storage : plan.ring_storage) storage.assign(values, 0.0);
 }
 
