@@ -1154,8 +1154,26 @@ SweepRecords size_records(LanePassScratch& scratch, std::size_t particles, bool 
 }
 }  // namespace
 
-SweepRecords records_for_sweep(LanePassScratch& scratch, std::size_t particles, bool friction) {
-  if (!reads_records(particles)) return {};
+SweepRecords current_records(const Particles& p, bool friction, LanePassScratch& scratch) {
+  const std::size_t n = p.size();
+  const std::size_t sized_before = scratch.kinematics.size();
+  const SweepRecords records = size_records(scratch, n, friction);
+  if (!scratch.current || scratch.kinematics.size() != sized_before) {
+    const auto fill = HWY_DYNAMIC_DISPATCH(FillKinematics);
+    const auto chunks = static_cast<std::int64_t>((n + kPairPassChunk - 1) / kPairPassChunk);
+#pragma omp parallel for schedule(static) if (chunks > 1)
+    for (std::int64_t c = 0; c < chunks; ++c) {
+      const std::size_t first = static_cast<std::size_t>(c) * kPairPassChunk;
+      fill(p, first, std::min(n, first + kPairPassChunk), records.kinematics, records.spins);
+    }
+  }
+  scratch.current = false;  // the particles move on after this pass
+  return records;
+}
+
+SweepRecords records_for_sweep(LanePassScratch& scratch, std::size_t particles, bool friction,
+                               bool fused) {
+  if (!fused && !reads_records(particles)) return {};
   return size_records(scratch, particles, friction);
 }
 
@@ -1292,13 +1310,13 @@ ContactSummary simd_pair_forces_fused(const Particles& p, const Scene& scene,
                                       const BondingCriterion& criterion_met, PairForces& out,
                                       PairHistory& history, const FusedRing& ring,
                                       std::size_t first_row, std::size_t end_row,
+                                      const SweepRecords& records,
                                       const std::function<void(std::size_t, std::size_t)>& done) {
-  const std::size_t n = p.size();
-  if (reads_records(n) || out.in_records() || !out.roll_x.empty()) {
-    throw std::logic_error("simd_pair_forces_fused: a pass with records or rolling slots");
+  if (out.in_records() || !out.roll_x.empty()) {
+    throw std::logic_error("simd_pair_forces_fused: a pass with pair records or rolling slots");
   }
   LaneSetup setup;
-  prepare_lanes(setup, p, scene, list, constants, criterion_met, out, history, nullptr, {});
+  prepare_lanes(setup, p, scene, list, constants, criterion_met, out, history, nullptr, records);
   detail::LanePassArgs& args = setup.args;
   args.stream_slots = false;  // the ring stays in the caches
   args.kept = &ring.kept;

@@ -116,9 +116,15 @@ struct SweepRecords {
 
 /// Where the opening sweep of @p particles particles of a run with @p friction can write the
 /// kinematics records of the next pass, sized for them, or nulls when the pass reads none at this
-/// count (it then reads the particle arrays). The caller sets @c current once they are written.
-SweepRecords records_for_sweep(LanePassScratch& scratch, std::size_t particles, bool friction);
+/// count (it then reads the particle arrays); with @p fused, for the fused pass, which reads them
+/// at every count. The caller sets @c current once they are written.
+SweepRecords records_for_sweep(LanePassScratch& scratch, std::size_t particles, bool friction,
+                               bool fused = false);
 
+/// The kinematics records of @p p's particles as they are now for the fused pass, which reads them
+/// at every count (simd_pair_forces_fused), filled here unless @p scratch's are current; clears
+/// current.
+SweepRecords current_records(const Particles& p, bool friction, LanePassScratch& scratch);
 /// Whether the kinematics records of a run with @p friction hold the spins too, (wx, wy, wz, 0)
 /// after the velocities: with friction on AVX-512, where the gather transposes eight of them at a
 /// time (the 20 800 peer lattice 0.96 of the time; on AVX2 and SSE4 1.00-1.04, left out).
@@ -158,5 +164,6 @@ ContactSummary simd_pair_forces_fused(const Particles& p, const Scene& scene,
                                       const BondingCriterion& criterion_met, PairForces& out,
                                       PairHistory& history, const FusedRing& ring,
                                       std::size_t first_row, std::size_t end_row,
+                                      const SweepRecords& records,
                                       const std::function<void(std::size_t, std::size_t)>& done);
 }  // namespace bondem

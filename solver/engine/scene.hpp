@@ -40,8 +40,7 @@ struct Scene {
   int reorder_interval = 20;  ///< sort particles by cell every this many list builds (0: never)
   bool friction = false;      ///< tangential law, rolling resistance and rotation are on
   /// Whether some output reads each pair's force at the steps whose state it reads (VTK frames'
-  /// contacts): the fused pass (fused_pass.hpp), which keeps none, then serves only the steps
-  /// that drift ahead.
+  /// contacts): the fused pass (fused_pass.hpp), which keeps none, is then not taken.
   bool pair_forces_read = true;
   double max_overlap_fraction = 0.25;  ///< overlap / smaller radius beyond which a run stops
   // Heat transfer (particles.thermal() tells whether it is on).

@@ -91,14 +91,14 @@ Stepper::Stepper(Scene& scene, StepperState restored, CarriedPairs carried, Pair
   removed_ = restored.removed;
 }
 
-bool Stepper::takes_fused_pass(bool ahead) {
+bool Stepper::takes_fused_pass() {
   const Particles& p = scene_.particles;
   const std::size_t n = p.size();
-  // Without a drift ahead the pass still pays where nothing reads each pair's force (a VTK frame
-  // does): it keeps no force slots.
-  if ((!ahead && scene_.pair_forces_read) || lane_constants_.empty() || !counted_.empty() ||
-      p.thermal() || p.contact_history || scene_.rolling() || n < fused_pass_from() ||
-      pass_reads_records(n) || keeps_pair_records(n, scene_.friction, false, false)) {
+  // It keeps no force slots: a run whose output reads each pair's force (a VTK frame does) takes
+  // the two passes. Without a drift ahead it still pays.
+  if (scene_.pair_forces_read || lane_constants_.empty() || !counted_.empty() || p.thermal() ||
+      p.contact_history || scene_.rolling() || n < fused_pass_from() ||
+      keeps_pair_records(n, scene_.friction, false, false)) {
     return false;
   }
   const int shares = threads_in_use(n);
@@ -130,6 +130,9 @@ ContactSummary Stepper::evaluate_fused(const Law& law, bool ahead) {
   ahead_parts_.assign(static_cast<std::size_t>(shares), {});
   std::vector<ContactSummary> parts(static_cast<std::size_t>(shares));
   std::vector<double> seconds(static_cast<std::size_t>(shares), 0.0);
+  // The kinematics records the lanes read where they read any: a particle's drift writes its
+  // next ones only once no row still to be done reads it.
+  const SweepRecords records = current_records(p, scene_.friction, lane_scratch_);
   const SweepArrays arrays = ahead ? sweep_arrays(true) : SweepArrays{};
   // Pass 2 of particles [first, end) from @p slots, on share @p s's sums, and their drift ahead.
   const auto sum = [&](int s, const auto& slots, std::size_t first, std::size_t end) {
@@ -159,7 +162,7 @@ ContactSummary Stepper::evaluate_fused(const Law& law, bool ahead) {
     std::size_t next = 0;
     const ContactSummary pairs = simd_pair_forces_fused(
         p, scene_, list_, lane_constants_, criterion, pair_forces_, history_, ring,
-        fused_rows_[share], fused_rows_[share + 1], [&](std::size_t row, std::size_t end) {
+        fused_rows_[share], fused_rows_[share + 1], records, [&](std::size_t row, std::size_t end) {
           for (std::size_t at = row; at < end;) {
             while (next < waiting.size() && waiting[next + 1] <= at) next += 2;
             if (next < waiting.size() && waiting[next] <= at) {
@@ -282,13 +285,10 @@ void Stepper::compute_forces(double laser_time, bool ahead) {
   const Particles& p = scene_.particles;
   const bool records = !lane_constants_.empty() && !p.contact_history &&
                        keeps_pair_records(p.size(), scene_.friction, scene_.rolling(), p.thermal());
-  fused_now_ = takes_fused_pass(ahead);
+  fused_now_ = takes_fused_pass();
   if (fused_now_) {
-    // Its force slots are a ring per thread and the records of the pairs it keeps. Where some
-    // output reads each pair's force, the two passes' slots stay for the steps it reads (the
-    // fused pass leaves them as they were): freed and refilled, a 10^6 run would pay for their
-    // pages at every frame.
-    if (!scene_.pair_forces_read && pair_forces_.pairs() != 0) release_pair_forces();
+    // Its force slots are a ring per thread and the records of the pairs it keeps.
+    if (pair_forces_.pairs() != 0) release_pair_forces();
   } else if (pair_forces_.pairs() != list_.pair_count() || pair_forces_.in_records() != records) {
     pair_forces_.resize(list_.pair_count(), scene_.friction, scene_.rolling(), p.thermal(),
                         records);
@@ -569,9 +569,10 @@ SweepArrays Stepper::sweep_arrays(bool write_records) {
   Particles& p = scene_.particles;
   // The SIMD pass's records, written by the sweep while each value is in a register: a sweep of
   // its own over eight arrays and a parallel region less per step.
-  const SweepRecords records = write_records && !lane_constants_.empty()
-                                   ? records_for_sweep(lane_scratch_, p.size(), scene_.friction)
-                                   : SweepRecords{};
+  const SweepRecords records =
+      write_records && !lane_constants_.empty()
+          ? records_for_sweep(lane_scratch_, p.size(), scene_.friction, fused_now_)
+          : SweepRecords{};
   const bool spin = scene_.friction;
   const bool tracked = p.displacement_tracked;
   return {.x = p.x.data(),

@@ -260,7 +260,7 @@ class Stepper {
   template <bool kFriction, bool kModels, class Law>
   ContactSummary evaluate_forces(const Law& law, bool ahead);
   /// Whether this step's forces take the fused pass (fused_pass.hpp); plans it for the list.
-  bool takes_fused_pass(bool ahead);
+  bool takes_fused_pass();
   /// Both passes, and with @p ahead the drift ahead, as the fused pass.
   template <bool kFriction, class Law>
   ContactSummary evaluate_fused(const Law& law, bool ahead);
